@@ -1,0 +1,728 @@
+/*
+ * Colour nodes: Mix (and the legacy MixRGB), Invert, Color Ramp, and the RGB and Value
+ * constants.
+ *
+ * Sources of truth: Cycles' kernel/svm/mix.h, color_util.h (the blend modes), invert.h,
+ * ramp.h/ramp_util.h (the ramp lookup), value.h; for the Color Ramp also Blender's
+ * BKE_colorband_evaluate (blenkernel colorband), BLI's rgb/hsv/hsl conversions and
+ * key_curve_position_weights, because Cycles never evaluates a ramp itself: Blender
+ * samples the ramp into a table when it hands the shader to Cycles, and the kernel
+ * interpolates that table.
+ *
+ * Blender 3.4 and 4.3 differ in two places here:
+ *   - the EXCLUSION blend exists only in 4.x (3.4 cannot express it; it is computed the
+ *     4.x way in both modes);
+ *   - the ramp table: 3.4 samples 256 entries at i / 255, 4.3 samples 257 entries at
+ *     i / 256 (measured: a CONSTANT ramp with a stop at 0.5 switches at 128/255 in 3.4
+ *     and at exactly 0.5 in 4.3).
+ */
+#include <math.h>
+#include <stdbool.h>
+
+#include "shadergraph/kernels/color_util.h"
+#include "shadergraph/kernels/kernel_util.h"
+#include "shadergraph/node_type.h"
+
+#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
+
+/* ---- the blend modes (Cycles' svm_mix) ------------------------------------------- */
+
+/* Blender 4.x RNA order of blend_type (ShaderNodeMix and ShaderNodeMixRGB). */
+static const char *const blend_type_values[] = {
+    "MIX",          "DARKEN",     "MULTIPLY", "BURN",     "LIGHTEN", "SCREEN",     "DODGE",
+    "ADD",          "OVERLAY",    "SOFT_LIGHT", "LINEAR_LIGHT", "DIFFERENCE", "EXCLUSION",
+    "SUBTRACT",     "DIVIDE",     "HUE",      "SATURATION", "COLOR", "VALUE",      NULL};
+enum {
+    BLEND_MIX, BLEND_DARKEN, BLEND_MULTIPLY, BLEND_BURN, BLEND_LIGHTEN, BLEND_SCREEN,
+    BLEND_DODGE, BLEND_ADD, BLEND_OVERLAY, BLEND_SOFT_LIGHT, BLEND_LINEAR_LIGHT,
+    BLEND_DIFFERENCE, BLEND_EXCLUSION, BLEND_SUBTRACT, BLEND_DIVIDE, BLEND_HUE,
+    BLEND_SATURATION, BLEND_COLOR, BLEND_VALUE
+};
+
+/* a + t (b - a), Cycles' interp(). */
+static inline float lerpf(float a, float b, float t) { return a + t * (b - a); }
+static inline float3 lerp3(float3 a, float3 b, float t)
+{
+    return make_float3(lerpf(a.x, b.x, t), lerpf(a.y, b.y, t), lerpf(a.z, b.z, t));
+}
+static inline float3 saturate3(float3 a)
+{
+    return make_float3(cy_saturatef(a.x), cy_saturatef(a.y), cy_saturatef(a.z));
+}
+
+static inline float overlay1(float t, float a, float b)
+{
+    float tm = 1.0f - t;
+    if (a < 0.5f)
+        return a * (tm + 2.0f * t * b);
+    return 1.0f - (tm + 2.0f * t * (1.0f - b)) * (1.0f - a);
+}
+
+/* Divide leaves a channel alone where the divisor is 0. */
+static inline float divide1(float t, float a, float b)
+{
+    float tm = 1.0f - t;
+    return b != 0.0f ? tm * a + t * a / b : a;
+}
+
+static inline float dodge1(float t, float a, float b)
+{
+    if (a == 0.0f)
+        return a;
+    float d = 1.0f - t * b;
+    if (d <= 0.0f)
+        return 1.0f;
+    float q = a / d;
+    return q > 1.0f ? 1.0f : q;
+}
+
+static inline float burn1(float t, float a, float b)
+{
+    float d = (1.0f - t) + t * b;
+    if (d <= 0.0f)
+        return 0.0f;
+    float q = 1.0f - (1.0f - a) / d;
+    if (q < 0.0f)
+        return 0.0f;
+    return q > 1.0f ? 1.0f : q;
+}
+
+static float3 svm_mix(int blend, float t, float3 a, float3 b)
+{
+    float tm = 1.0f - t;
+    switch (blend) {
+    case BLEND_MIX:
+        return lerp3(a, b, t);
+    case BLEND_ADD:
+        return lerp3(a, f3_add(a, b), t);
+    case BLEND_MULTIPLY:
+        return lerp3(a, f3_mul(a, b), t);
+    case BLEND_SUBTRACT:
+        return lerp3(a, f3_sub(a, b), t);
+    case BLEND_SCREEN:
+        return make_float3(1.0f - (tm + t * (1.0f - b.x)) * (1.0f - a.x),
+                           1.0f - (tm + t * (1.0f - b.y)) * (1.0f - a.y),
+                           1.0f - (tm + t * (1.0f - b.z)) * (1.0f - a.z));
+    case BLEND_OVERLAY:
+        return make_float3(overlay1(t, a.x, b.x), overlay1(t, a.y, b.y), overlay1(t, a.z, b.z));
+    case BLEND_DIVIDE:
+        return make_float3(divide1(t, a.x, b.x), divide1(t, a.y, b.y), divide1(t, a.z, b.z));
+    case BLEND_DIFFERENCE:
+        return lerp3(a, make_float3(fabsf(a.x - b.x), fabsf(a.y - b.y), fabsf(a.z - b.z)), t);
+    case BLEND_EXCLUSION: {
+        float3 e = make_float3(a.x + b.x - 2.0f * a.x * b.x, a.y + b.y - 2.0f * a.y * b.y,
+                               a.z + b.z - 2.0f * a.z * b.z);
+        float3 r = lerp3(a, e, t);
+        return make_float3(cy_maxf(r.x, 0.0f), cy_maxf(r.y, 0.0f), cy_maxf(r.z, 0.0f));
+    }
+    case BLEND_DARKEN:
+        return lerp3(a, make_float3(cy_minf(a.x, b.x), cy_minf(a.y, b.y), cy_minf(a.z, b.z)), t);
+    case BLEND_LIGHTEN:
+        return lerp3(a, make_float3(cy_maxf(a.x, b.x), cy_maxf(a.y, b.y), cy_maxf(a.z, b.z)), t);
+    case BLEND_DODGE:
+        return make_float3(dodge1(t, a.x, b.x), dodge1(t, a.y, b.y), dodge1(t, a.z, b.z));
+    case BLEND_BURN:
+        return make_float3(burn1(t, a.x, b.x), burn1(t, a.y, b.y), burn1(t, a.z, b.z));
+    case BLEND_HUE: {
+        /* B's hue on A, only where B has a hue at all. */
+        float3 hsv_b = rgb_to_hsv(b);
+        if (hsv_b.y == 0.0f)
+            return a;
+        float3 hsv = rgb_to_hsv(a);
+        hsv.x = hsv_b.x;
+        return lerp3(a, hsv_to_rgb(hsv), t);
+    }
+    case BLEND_SATURATION: {
+        /* Interpolates A's saturation towards B's; grey A stays grey. */
+        float3 hsv = rgb_to_hsv(a);
+        if (hsv.y == 0.0f)
+            return a;
+        float3 hsv_b = rgb_to_hsv(b);
+        hsv.y = tm * hsv.y + t * hsv_b.y;
+        return hsv_to_rgb(hsv);
+    }
+    case BLEND_VALUE: {
+        float3 hsv = rgb_to_hsv(a);
+        float3 hsv_b = rgb_to_hsv(b);
+        hsv.z = tm * hsv.z + t * hsv_b.z;
+        return hsv_to_rgb(hsv);
+    }
+    case BLEND_COLOR: {
+        float3 hsv_b = rgb_to_hsv(b);
+        if (hsv_b.y == 0.0f)
+            return a;
+        float3 hsv = rgb_to_hsv(a);
+        hsv.x = hsv_b.x;
+        hsv.y = hsv_b.y;
+        return lerp3(a, hsv_to_rgb(hsv), t);
+    }
+    case BLEND_SOFT_LIGHT: {
+        float3 one = make_float3(1.0f, 1.0f, 1.0f);
+        float3 screen = f3_sub(one, f3_mul(f3_sub(one, b), f3_sub(one, a)));
+        float3 soft = f3_add(f3_mul(f3_mul(f3_sub(one, a), b), a), f3_mul(a, screen));
+        return f3_add(f3_scale(a, tm), f3_scale(soft, t));
+    }
+    case BLEND_LINEAR_LIGHT:
+        return make_float3(a.x + t * (2.0f * b.x + -1.0f), a.y + t * (2.0f * b.y + -1.0f),
+                           a.z + t * (2.0f * b.z + -1.0f));
+    default:
+        return make_float3(0.0f, 0.0f, 0.0f);
+    }
+}
+
+/* ---- Mix (ShaderNodeMix) ---------------------------------------------------------- */
+
+static const char *const mix_data_type_values[] = {"FLOAT", "VECTOR", "RGBA", NULL};
+enum { DATA_FLOAT, DATA_VECTOR, DATA_RGBA };
+static const char *const mix_factor_mode_values[] = {"UNIFORM", "NON_UNIFORM", NULL};
+enum { FACTOR_UNIFORM, FACTOR_NON_UNIFORM };
+enum { MIX_PROP_DATA_TYPE, MIX_PROP_FACTOR_MODE, MIX_PROP_BLEND_TYPE, MIX_PROP_CLAMP_FACTOR,
+       MIX_PROP_CLAMP_RESULT };
+enum { MIX_IN_FACTOR_FLOAT, MIX_IN_FACTOR_VECTOR, MIX_IN_A_FLOAT, MIX_IN_B_FLOAT,
+       MIX_IN_A_VECTOR, MIX_IN_B_VECTOR, MIX_IN_A_COLOR, MIX_IN_B_COLOR };
+enum { MIX_OUT_FLOAT, MIX_OUT_VECTOR, MIX_OUT_COLOR };
+
+static void mix_float(const sg_kernel_args *a, bool clamp_factor)
+{
+    float *out = a->out[MIX_OUT_FLOAT];
+    if (!out)
+        return;
+    const float *fac = a->in[MIX_IN_FACTOR_FLOAT];
+    const float *x = a->in[MIX_IN_A_FLOAT], *y = a->in[MIX_IN_B_FLOAT];
+    for (int i = 0; i < a->n; i++) {
+        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
+        out[i] = x[i] * (1.0f - t) + y[i] * t;
+    }
+}
+
+static void mix_vector(const sg_kernel_args *a, bool clamp_factor, bool non_uniform)
+{
+    float *out = a->out[MIX_OUT_VECTOR];
+    if (!out)
+        return;
+    const int n = a->n;
+    const float *x = a->in[MIX_IN_A_VECTOR], *y = a->in[MIX_IN_B_VECTOR];
+    for (int c = 0; c < 3; c++) {
+        /* A uniform factor is one float per point; a non-uniform one has a component per
+         * axis. Either way the arithmetic is per component. */
+        const float *fac = non_uniform ? a->in[MIX_IN_FACTOR_VECTOR] + (size_t)c * (size_t)n
+                                       : a->in[MIX_IN_FACTOR_FLOAT];
+        const float *xc = x + (size_t)c * (size_t)n, *yc = y + (size_t)c * (size_t)n;
+        float *oc = out + (size_t)c * (size_t)n;
+        for (int i = 0; i < n; i++) {
+            float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
+            oc[i] = xc[i] * (1.0f - t) + yc[i] * t;
+        }
+    }
+}
+
+static void mix_color(const sg_kernel_args *a, int blend, bool clamp_factor, bool clamp_result)
+{
+    float *out = a->out[MIX_OUT_COLOR];
+    if (!out)
+        return;
+    const int n = a->n;
+    const float *fac = a->in[MIX_IN_FACTOR_FLOAT];
+    for (int i = 0; i < n; i++) {
+        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
+        float3 r = svm_mix(blend, t, f3_load(a->in[MIX_IN_A_COLOR], n, i),
+                           f3_load(a->in[MIX_IN_B_COLOR], n, i));
+        f3_store(out, n, i, clamp_result ? saturate3(r) : r);
+    }
+}
+
+static void mix_kernel(const sg_kernel_args *a)
+{
+    const bool clamp_factor = a->prop[MIX_PROP_CLAMP_FACTOR] != 0;
+    switch (a->prop[MIX_PROP_DATA_TYPE]) {
+    case DATA_FLOAT:
+        mix_float(a, clamp_factor);
+        break;
+    case DATA_VECTOR:
+        mix_vector(a, clamp_factor, a->prop[MIX_PROP_FACTOR_MODE] == FACTOR_NON_UNIFORM);
+        break;
+    default:
+        mix_color(a, a->prop[MIX_PROP_BLEND_TYPE], clamp_factor,
+                  a->prop[MIX_PROP_CLAMP_RESULT] != 0);
+        break;
+    }
+}
+
+#define DATA_BIT(d) (1u << (d))
+
+/* Blender shows the sockets of the current data_type only. Factor_Float also disappears
+ * for VECTOR with NON_UNIFORM factors; one mask per property cannot say "unless both",
+ * so Factor_Float is declared always available (a link to it there is accepted, and
+ * ignored, where Blender would refuse it). */
+static const sg_socket_def mix_inputs[] = {
+    {"Factor_Float", "Factor", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Factor_Vector", "Factor", SG_SOCKET_VECTOR, {0.5f, 0.5f, 0.5f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_VECTOR), MIX_PROP_DATA_TYPE, 1u << FACTOR_NON_UNIFORM, MIX_PROP_FACTOR_MODE},
+    {"A_Float", "A", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DATA_BIT(DATA_FLOAT),
+     MIX_PROP_DATA_TYPE, 0, 0},
+    {"B_Float", "B", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DATA_BIT(DATA_FLOAT),
+     MIX_PROP_DATA_TYPE, 0, 0},
+    {"A_Vector", "A", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_VECTOR), MIX_PROP_DATA_TYPE, 0, 0},
+    {"B_Vector", "B", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_VECTOR), MIX_PROP_DATA_TYPE, 0, 0},
+    {"A_Color", "A", SG_SOCKET_COLOR, {0.5f, 0.5f, 0.5f, 1.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_RGBA), MIX_PROP_DATA_TYPE, 0, 0},
+    {"B_Color", "B", SG_SOCKET_COLOR, {0.5f, 0.5f, 0.5f, 1.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_RGBA), MIX_PROP_DATA_TYPE, 0, 0},
+};
+static const sg_socket_def mix_outputs[] = {
+    {"Result_Float", "Result", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DATA_BIT(DATA_FLOAT),
+     MIX_PROP_DATA_TYPE, 0, 0},
+    {"Result_Vector", "Result", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_VECTOR), MIX_PROP_DATA_TYPE, 0, 0},
+    {"Result_Color", "Result", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE,
+     DATA_BIT(DATA_RGBA), MIX_PROP_DATA_TYPE, 0, 0},
+};
+static const sg_prop_def mix_props[] = {
+    {"data_type", SG_PROP_ENUM, mix_data_type_values, DATA_FLOAT},
+    {"factor_mode", SG_PROP_ENUM, mix_factor_mode_values, FACTOR_UNIFORM},
+    {"blend_type", SG_PROP_ENUM, blend_type_values, BLEND_MIX},
+    {"clamp_factor", SG_PROP_BOOL, NULL, 1},
+    {"clamp_result", SG_PROP_BOOL, NULL, 0},
+};
+
+const sg_node_type node_type_mix = {
+    "ShaderNodeMix",
+    mix_inputs,  COUNT(mix_inputs),
+    mix_outputs, COUNT(mix_outputs),
+    mix_props,   COUNT(mix_props),
+    mix_kernel,  0,
+};
+
+/* ---- MixRGB (legacy ShaderNodeMixRGB) --------------------------------------------- */
+
+/* Cycles always clamps this node's factor to [0, 1] (svm_mix_clamped_factor); use_clamp
+ * clamps the result. use_alpha is a compositor option that Cycles ignores. */
+static void mix_rgb_kernel(const sg_kernel_args *a)
+{
+    float *out = a->out[0];
+    if (!out)
+        return;
+    const int n = a->n;
+    const int blend = a->prop[0];
+    const bool clamp_result = a->prop[2] != 0;
+    for (int i = 0; i < n; i++) {
+        float t = cy_saturatef(a->in[0][i]);
+        float3 r = svm_mix(blend, t, f3_load(a->in[1], n, i), f3_load(a->in[2], n, i));
+        f3_store(out, n, i, clamp_result ? saturate3(r) : r);
+    }
+}
+
+static const sg_socket_def mix_rgb_inputs[] = {
+    {"Fac", "Fac", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Color1", "Color1", SG_SOCKET_COLOR, {0.5f, 0.5f, 0.5f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Color2", "Color2", SG_SOCKET_COLOR, {0.5f, 0.5f, 0.5f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def mix_rgb_outputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_prop_def mix_rgb_props[] = {
+    {"blend_type", SG_PROP_ENUM, blend_type_values, BLEND_MIX},
+    {"use_alpha", SG_PROP_BOOL, NULL, 0},
+    {"use_clamp", SG_PROP_BOOL, NULL, 0},
+};
+
+const sg_node_type node_type_mix_rgb = {
+    "ShaderNodeMixRGB",
+    mix_rgb_inputs,  COUNT(mix_rgb_inputs),
+    mix_rgb_outputs, COUNT(mix_rgb_outputs),
+    mix_rgb_props,   COUNT(mix_rgb_props),
+    mix_rgb_kernel,  0,
+};
+
+/* ---- Invert ----------------------------------------------------------------------- */
+
+static void invert_kernel(const sg_kernel_args *a)
+{
+    float *out = a->out[0];
+    if (!out)
+        return;
+    const int n = a->n;
+    const float *fac = a->in[0];
+    for (int c = 0; c < 3; c++) {
+        const float *col = a->in[1] + (size_t)c * (size_t)n;
+        float *o = out + (size_t)c * (size_t)n;
+        for (int i = 0; i < n; i++)
+            o[i] = fac[i] * (1.0f - col[i]) + (1.0f - fac[i]) * col[i];
+    }
+}
+
+static const sg_socket_def invert_inputs[] = {
+    {"Fac", "Fac", SG_SOCKET_FLOAT, {1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Color", "Color", SG_SOCKET_COLOR, {0.0f, 0.0f, 0.0f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def invert_outputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_invert = {
+    "ShaderNodeInvert",
+    invert_inputs,  COUNT(invert_inputs),
+    invert_outputs, COUNT(invert_outputs),
+    NULL,           0,
+    invert_kernel,  0,
+};
+
+/* ---- Color Ramp ------------------------------------------------------------------- */
+
+/* Index order of sg_ramp_interpolations / _color_modes / _hue_interpolations. */
+enum { RAMP_EASE, RAMP_CARDINAL, RAMP_LINEAR, RAMP_B_SPLINE, RAMP_CONSTANT };
+enum { RAMP_RGB, RAMP_HSV, RAMP_HSL };
+enum { HUE_NEAR, HUE_FAR, HUE_CW, HUE_CCW };
+
+/* Entries of the table Blender hands to Cycles, at most. */
+#define RAMP_TABLE_MAX 257
+
+/* Blender's BLI colour conversions (not Cycles'): the ramp is sampled on Blender's side. */
+static void bli_rgb_to_hsv(const float rgb[3], float hsv[3])
+{
+    float r = rgb[0], g = rgb[1], b = rgb[2];
+    float k = 0.0f;
+    if (g < b) {
+        float s = g;
+        g = b;
+        b = s;
+        k = -1.0f;
+    }
+    float min_gb = b;
+    if (r < g) {
+        float s = r;
+        r = g;
+        g = s;
+        k = -2.0f / 6.0f - k;
+        min_gb = fminf(g, b);
+    }
+    float chroma = r - min_gb;
+    hsv[0] = fabsf(k + (g - b) / (6.0f * chroma + 1e-20f));
+    hsv[1] = chroma / (r + 1e-20f);
+    hsv[2] = r;
+}
+
+static void bli_rgb_to_hsl(const float rgb[3], float hsl[3])
+{
+    float r = rgb[0], g = rgb[1], b = rgb[2];
+    float cmax = fmaxf(fmaxf(r, g), b);
+    float cmin = fminf(fminf(r, g), b);
+    float h = 0.0f, s = 0.0f, l = fminf(1.0f, (cmax + cmin) / 2.0f);
+    if (cmax != cmin) {
+        float d = cmax - cmin;
+        s = l > 0.5f ? d / (2.0f - cmax - cmin) : d / (cmax + cmin);
+        if (cmax == r)
+            h = (g - b) / d + (g < b ? 6.0f : 0.0f);
+        else if (cmax == g)
+            h = (b - r) / d + 2.0f;
+        else
+            h = (r - g) / d + 4.0f;
+    }
+    hsl[0] = h / 6.0f;
+    hsl[1] = s;
+    hsl[2] = l;
+}
+
+/* The three "sextant ramps" both of BLI's hue-to-rgb conversions start from. */
+static void bli_hue_ramps(float h, float n[3])
+{
+    n[0] = fminf(fmaxf(fabsf(h * 6.0f - 3.0f) - 1.0f, 0.0f), 1.0f);
+    n[1] = fminf(fmaxf(2.0f - fabsf(h * 6.0f - 2.0f), 0.0f), 1.0f);
+    n[2] = fminf(fmaxf(2.0f - fabsf(h * 6.0f - 4.0f), 0.0f), 1.0f);
+}
+
+static void bli_hsv_to_rgb(const float hsv[3], float rgb[3])
+{
+    float n[3];
+    bli_hue_ramps(hsv[0], n);
+    for (int c = 0; c < 3; c++)
+        rgb[c] = ((n[c] - 1.0f) * hsv[1] + 1.0f) * hsv[2];
+}
+
+static void bli_hsl_to_rgb(const float hsl[3], float rgb[3])
+{
+    float n[3];
+    bli_hue_ramps(hsl[0], n);
+    float chroma = (1.0f - fabsf(2.0f * hsl[2] - 1.0f)) * hsl[1];
+    for (int c = 0; c < 3; c++)
+        rgb[c] = (n[c] - 0.5f) * chroma + hsl[2];
+}
+
+/* Hue blend between two stops: weight `fac` on h2, `mfac` on h1, going round the hue
+ * circle the way the ramp's hue_interpolation asks (Blender's colorband_hue_interp). */
+static float ramp_hue_interp(int mode, float mfac, float fac, float h1, float h2)
+{
+    h1 = h1 < 1.0f ? h1 : h1 - 1.0f;
+    h2 = h2 < 1.0f ? h2 : h2 - 1.0f;
+    int wrap = 0; /* 0: straight; 1: h1 + 1; 2: h2 + 1 */
+    switch (mode) {
+    case HUE_NEAR:
+        if (h1 < h2 && h2 - h1 > 0.5f)
+            wrap = 1;
+        else if (h1 > h2 && h2 - h1 < -0.5f)
+            wrap = 2;
+        break;
+    case HUE_FAR:
+        /* Equal hues go once round the circle. */
+        if (h1 == h2)
+            wrap = 1;
+        else if (h1 < h2 && h2 - h1 < 0.5f)
+            wrap = 1;
+        else if (h1 > h2 && h2 - h1 > -0.5f)
+            wrap = 2;
+        break;
+    case HUE_CCW:
+        if (h1 > h2)
+            wrap = 2;
+        break;
+    case HUE_CW:
+        if (h1 < h2)
+            wrap = 1;
+        break;
+    default:
+        break;
+    }
+    float h;
+    if (wrap == 1)
+        h = mfac * (h1 + 1.0f) + fac * h2;
+    else if (wrap == 2)
+        h = mfac * h1 + fac * (h2 + 1.0f);
+    else
+        return mfac * h1 + fac * h2;
+    return h < 1.0f ? h : h - 1.0f;
+}
+
+/* Blender's cubic weights for the four stops around a span (key_curve_position_weights):
+ * w[0] for the stop after the right one, w[1] right, w[2] left, w[3] the one before. */
+static void ramp_cubic_weights(float t, bool cardinal, float w[4])
+{
+    float t2 = t * t, t3 = t2 * t;
+    if (cardinal) {
+        const float fc = 0.71f;
+        w[0] = -fc * t3 + 2.0f * fc * t2 - fc * t;
+        w[1] = (2.0f - fc) * t3 + (fc - 3.0f) * t2 + 1.0f;
+        w[2] = (fc - 2.0f) * t3 + (3.0f - 2.0f * fc) * t2 + fc * t;
+        w[3] = fc * t3 - fc * t2;
+    } else {
+        w[0] = -0.16666666f * t3 + 0.5f * t2 - 0.5f * t + 0.16666666f;
+        w[1] = 0.5f * t3 - t2 + 0.66666666f;
+        w[2] = -0.5f * t3 + 0.5f * t2 + 0.5f * t + 0.16666666f;
+        w[3] = 0.16666666f * t3;
+    }
+}
+
+static void copy4(float dst[4], const float src[4])
+{
+    for (int c = 0; c < 4; c++)
+        dst[c] = src[c];
+}
+
+/*
+ * The ramp's RGBA at `in`, as Blender's BKE_colorband_evaluate computes it. The stops are
+ * sorted by position. Notes on what it does, since it is not what one would guess:
+ *  - HSV and HSL ramps ignore the interpolation setting and blend linearly (only the hue
+ *    path is configurable); but the Cycles lookup still treats CONSTANT as "do not
+ *    interpolate the table".
+ *  - the search finds the first stop strictly right of `in`: `right` is that stop and
+ *    `left` the one before. Past the last stop a copy of it at position 1 plays `right`;
+ *    before the first, a copy at position 0 plays `left`. Coincident stops make a step.
+ *  - `fac` is the weight of the LEFT stop: (in - right.pos) / (left.pos - right.pos).
+ *  - CARDINAL and B_SPLINE reach one stop further on each side (repeating the end stops)
+ *    and clamp the result to [0, 1].
+ */
+static void ramp_evaluate(const sg_color_ramp *ramp, float in, float out[4])
+{
+    const int n = ramp->n;
+    if (n <= 0) {
+        out[0] = out[1] = out[2] = out[3] = 0.0f;
+        return;
+    }
+    const int ipo = ramp->color_mode == RAMP_RGB ? ramp->interpolation : RAMP_LINEAR;
+    const bool clamps_at_ends = ipo == RAMP_LINEAR || ipo == RAMP_EASE || ipo == RAMP_CONSTANT;
+
+    if (n == 1 || (in <= ramp->position[0] && clamps_at_ends)) {
+        copy4(out, ramp->color[0]);
+        return;
+    }
+
+    int a = 0;
+    while (a < n && !(ramp->position[a] > in))
+        a++;
+
+    /* right/left as position + colour; the end copies are local. */
+    float right_pos, left_pos;
+    const float *right, *left;
+    if (a == n) {
+        left = ramp->color[n - 1];
+        left_pos = ramp->position[n - 1];
+        right = left;
+        right_pos = 1.0f;
+        if (clamps_at_ends) {
+            copy4(out, left);
+            return;
+        }
+    } else if (a == 0) {
+        right = ramp->color[0];
+        right_pos = ramp->position[0];
+        left = right;
+        left_pos = 0.0f;
+    } else {
+        right = ramp->color[a];
+        right_pos = ramp->position[a];
+        left = ramp->color[a - 1];
+        left_pos = ramp->position[a - 1];
+    }
+
+    if (ipo == RAMP_CONSTANT) {
+        copy4(out, left);
+        return;
+    }
+
+    float fac;
+    if (left_pos != right_pos)
+        fac = (in - right_pos) / (left_pos - right_pos);
+    else
+        fac = (a != n) ? 0.0f : 1.0f;
+
+    if (ipo == RAMP_B_SPLINE || ipo == RAMP_CARDINAL) {
+        const float *next = (a >= n - 1) ? right : ramp->color[a + 1];
+        const float *prev = (a < 2) ? left : ramp->color[a - 2];
+        float w[4];
+        fac = fminf(fmaxf(fac, 0.0f), 1.0f);
+        ramp_cubic_weights(fac, ipo == RAMP_CARDINAL, w);
+        for (int c = 0; c < 4; c++) {
+            float v = w[3] * prev[c] + w[2] * left[c] + w[1] * right[c] + w[0] * next[c];
+            out[c] = fminf(fmaxf(v, 0.0f), 1.0f);
+        }
+        return;
+    }
+
+    if (ipo == RAMP_EASE) {
+        float fac2 = fac * fac;
+        fac = 3.0f * fac2 - 2.0f * fac2 * fac;
+    }
+    const float mfac = 1.0f - fac;
+
+    if (ramp->color_mode == RAMP_HSV || ramp->color_mode == RAMP_HSL) {
+        float c1[3], c2[3], mixed[3];
+        if (ramp->color_mode == RAMP_HSV) {
+            bli_rgb_to_hsv(right, c1);
+            bli_rgb_to_hsv(left, c2);
+        } else {
+            bli_rgb_to_hsl(right, c1);
+            bli_rgb_to_hsl(left, c2);
+        }
+        mixed[0] = ramp_hue_interp(ramp->hue_interpolation, mfac, fac, c1[0], c2[0]);
+        mixed[1] = mfac * c1[1] + fac * c2[1];
+        mixed[2] = mfac * c1[2] + fac * c2[2];
+        out[3] = mfac * right[3] + fac * left[3];
+        if (ramp->color_mode == RAMP_HSV)
+            bli_hsv_to_rgb(mixed, out);
+        else
+            bli_hsl_to_rgb(mixed, out);
+        return;
+    }
+    for (int c = 0; c < 4; c++)
+        out[c] = mfac * right[c] + fac * left[c];
+}
+
+/* Cycles' rgb_ramp_lookup on a table of `size` RGBA entries spanning [0, 1]. */
+static void ramp_lookup(const float (*table)[4], int size, bool interpolate, float f,
+                        float out[4])
+{
+    f = cy_saturatef(f) * (float)(size - 1);
+    int i = (int)f;
+    /* NaN: the conversion above is undefined behaviour in C, so test first. */
+    if (!(f >= 0.0f))
+        i = 0;
+    if (i > size - 1)
+        i = size - 1;
+    float t = f - (float)i;
+    copy4(out, table[i]);
+    if (interpolate && t > 0.0f)
+        for (int c = 0; c < 4; c++)
+            out[c] = (1.0f - t) * out[c] + t * table[i + 1][c];
+}
+
+static void color_ramp_kernel(const sg_kernel_args *a)
+{
+    const sg_color_ramp *ramp = a->ramp;
+    float *color = a->out[0], *alpha = a->out[1];
+    const int n = a->n;
+    if (!color && !alpha)
+        return;
+
+    /* Blender 3.x: 256 entries at i / 255; 4.x: 257 at i / 256. Rebuilt per batch (a few
+     * microseconds) so the kernel stays a pure function of its arguments. */
+    const int steps = a->blender == SG_BLENDER_3 ? 255 : 256;
+    float table[RAMP_TABLE_MAX][4];
+    for (int i = 0; i <= steps; i++)
+        ramp_evaluate(ramp, (float)i / (float)steps, table[i]);
+    const bool interpolate = ramp->interpolation != RAMP_CONSTANT;
+
+    const float *fac = a->in[0];
+    for (int i = 0; i < n; i++) {
+        float rgba[4];
+        ramp_lookup((const float(*)[4])table, steps + 1, interpolate, fac[i], rgba);
+        if (color)
+            f3_store(color, n, i, make_float3(rgba[0], rgba[1], rgba[2]));
+        if (alpha)
+            alpha[i] = rgba[3];
+    }
+}
+
+static const sg_socket_def color_ramp_inputs[] = {
+    {"Fac", "Fac", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def color_ramp_outputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Alpha", "Alpha", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_prop_def color_ramp_props[] = {
+    {"color_ramp", SG_PROP_COLOR_RAMP, NULL, 0},
+};
+
+const sg_node_type node_type_color_ramp = {
+    "ShaderNodeValToRGB",
+    color_ramp_inputs,  COUNT(color_ramp_inputs),
+    color_ramp_outputs, COUNT(color_ramp_outputs),
+    color_ramp_props,   COUNT(color_ramp_props),
+    color_ramp_kernel,  0,
+};
+
+/* ---- RGB and Value ---------------------------------------------------------------- */
+
+/* These hold their value on the output socket ("outputs" in the JSON). The compiler
+ * turns them into constants; the kernels below only run if it does not, and then can
+ * only give Blender's default value (grey 0.5 / 0). */
+static void rgb_kernel(const sg_kernel_args *a)
+{
+    if (a->out[0])
+        for (int i = 0; i < 3 * a->n; i++)
+            a->out[0][i] = 0.5f;
+}
+
+static void value_kernel(const sg_kernel_args *a)
+{
+    if (a->out[0])
+        for (int i = 0; i < a->n; i++)
+            a->out[0][i] = 0.0f;
+}
+
+static const sg_socket_def rgb_outputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.5f, 0.5f, 0.5f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_rgb = {
+    "ShaderNodeRGB", NULL, 0, rgb_outputs, COUNT(rgb_outputs), NULL, 0, rgb_kernel, 0,
+};
+
+static const sg_socket_def value_outputs[] = {
+    {"Value", "Value", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_value = {
+    "ShaderNodeValue", NULL, 0, value_outputs, COUNT(value_outputs), NULL, 0, value_kernel, 0,
+};

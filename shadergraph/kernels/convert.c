@@ -1,0 +1,266 @@
+/*
+ * Converter nodes: Combine/Separate XYZ, Combine/Separate Color and Mapping.
+ *
+ * Sources of truth: Cycles' kernel/svm/sepcomb_vector.h, sepcomb_color.h, mapping.h and
+ * mapping_util.h, with util/color.h and util/transform.h. Blender 3.4 and 4.3 agree on all
+ * of these, so a->blender is not consulted.
+ *
+ * Combine/Separate Color convert with Cycles' HSV/HSL formulas (kernels/color_util.h), which
+ * neither wrap hues nor clamp channels: out-of-range inputs give what Blender gives.
+ */
+#include <math.h>
+
+#include "shadergraph/kernels/color_util.h"
+#include "shadergraph/kernels/kernel_util.h"
+#include "shadergraph/node_type.h"
+
+#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
+
+/* ---- Combine XYZ / Separate XYZ --------------------------------------------------- */
+
+static void combine_xyz_kernel(const sg_kernel_args *a)
+{
+    float *out = a->out[0];
+    if (!out)
+        return;
+    const int n = a->n;
+    for (int c = 0; c < 3; c++)
+        memcpy(out + (size_t)c * (size_t)n, a->in[c], (size_t)n * sizeof(float));
+}
+
+static void separate_xyz_kernel(const sg_kernel_args *a)
+{
+    const int n = a->n;
+    for (int c = 0; c < 3; c++)
+        if (a->out[c])
+            memcpy(a->out[c], a->in[0] + (size_t)c * (size_t)n, (size_t)n * sizeof(float));
+}
+
+static const sg_socket_def combine_xyz_inputs[] = {
+    {"X", "X", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Y", "Y", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Z", "Z", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def combine_xyz_outputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_combine_xyz = {
+    "ShaderNodeCombineXYZ",
+    combine_xyz_inputs,  COUNT(combine_xyz_inputs),
+    combine_xyz_outputs, COUNT(combine_xyz_outputs),
+    NULL,                0,
+    combine_xyz_kernel,  0,
+};
+
+static const sg_socket_def separate_xyz_inputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def separate_xyz_outputs[] = {
+    {"X", "X", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Y", "Y", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Z", "Z", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_separate_xyz = {
+    "ShaderNodeSeparateXYZ",
+    separate_xyz_inputs,  COUNT(separate_xyz_inputs),
+    separate_xyz_outputs, COUNT(separate_xyz_outputs),
+    NULL,                 0,
+    separate_xyz_kernel,  0,
+};
+
+/* ---- Combine Color / Separate Color ----------------------------------------------- */
+
+static const char *const color_mode_values[] = {"RGB", "HSV", "HSL", NULL};
+enum { COLOR_MODE_RGB, COLOR_MODE_HSV, COLOR_MODE_HSL };
+
+static void combine_color_kernel(const sg_kernel_args *a)
+{
+    float *out = a->out[0];
+    if (!out)
+        return;
+    const int n = a->n;
+    const float *r = a->in[0], *g = a->in[1], *b = a->in[2];
+    switch (a->prop[0]) {
+    case COLOR_MODE_HSV:
+        for (int i = 0; i < n; i++)
+            f3_store(out, n, i, hsv_to_rgb(make_float3(r[i], g[i], b[i])));
+        break;
+    case COLOR_MODE_HSL:
+        for (int i = 0; i < n; i++)
+            f3_store(out, n, i, hsl_to_rgb(make_float3(r[i], g[i], b[i])));
+        break;
+    default:
+        for (int i = 0; i < n; i++)
+            f3_store(out, n, i, make_float3(r[i], g[i], b[i]));
+        break;
+    }
+}
+
+static void separate_color_kernel(const sg_kernel_args *a)
+{
+    const int n = a->n;
+    const int mode = a->prop[0];
+    float *const *out = a->out;
+    for (int i = 0; i < n; i++) {
+        float3 c = f3_load(a->in[0], n, i);
+        if (mode == COLOR_MODE_HSV)
+            c = rgb_to_hsv(c);
+        else if (mode == COLOR_MODE_HSL)
+            c = rgb_to_hsl(c);
+        if (out[0])
+            out[0][i] = c.x;
+        if (out[1])
+            out[1][i] = c.y;
+        if (out[2])
+            out[2][i] = c.z;
+    }
+}
+
+static const sg_prop_def color_mode_props[] = {
+    {"mode", SG_PROP_ENUM, color_mode_values, COLOR_MODE_RGB},
+};
+
+static const sg_socket_def combine_color_inputs[] = {
+    {"Red", "Red", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Green", "Green", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Blue", "Blue", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def combine_color_outputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_combine_color = {
+    "ShaderNodeCombineColor",
+    combine_color_inputs,  COUNT(combine_color_inputs),
+    combine_color_outputs, COUNT(combine_color_outputs),
+    color_mode_props,      COUNT(color_mode_props),
+    combine_color_kernel,  0,
+};
+
+static const sg_socket_def separate_color_inputs[] = {
+    {"Color", "Color", SG_SOCKET_COLOR, {0.8f, 0.8f, 0.8f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def separate_color_outputs[] = {
+    {"Red", "Red", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Green", "Green", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Blue", "Blue", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+const sg_node_type node_type_separate_color = {
+    "ShaderNodeSeparateColor",
+    separate_color_inputs,  COUNT(separate_color_inputs),
+    separate_color_outputs, COUNT(separate_color_outputs),
+    color_mode_props,       COUNT(color_mode_props),
+    separate_color_kernel,  0,
+};
+
+/* ---- Mapping ---------------------------------------------------------------------- */
+
+static const char *const vector_type_values[] = {"POINT", "TEXTURE", "VECTOR", "NORMAL", NULL};
+enum { MAPPING_POINT, MAPPING_TEXTURE, MAPPING_VECTOR, MAPPING_NORMAL };
+
+/* Rows of the rotation matrix Cycles builds from Euler angles (X, then Y, then Z, about
+ * fixed axes): R = Rz * Ry * Rx. */
+typedef struct rotation3 {
+    float3 row[3];
+} rotation3;
+
+static rotation3 euler_to_rotation(float3 euler)
+{
+    float cx = cosf(euler.x), cy = cosf(euler.y), cz = cosf(euler.z);
+    float sx = sinf(euler.x), sy = sinf(euler.y), sz = sinf(euler.z);
+    rotation3 r;
+    r.row[0] = make_float3(cy * cz, sy * sx * cz - cx * sz, sy * cx * cz + sx * sz);
+    r.row[1] = make_float3(cy * sz, sy * sx * sz + cx * cz, sy * cx * sz - sx * cz);
+    r.row[2] = make_float3(-sy, cy * sx, cy * cx);
+    return r;
+}
+
+/* R v */
+static float3 rotate(const rotation3 *r, float3 v)
+{
+    return make_float3(f3_dot(r->row[0], v), f3_dot(r->row[1], v), f3_dot(r->row[2], v));
+}
+
+/* R^T v: the inverse rotation. */
+static float3 rotate_inverse(const rotation3 *r, float3 v)
+{
+    float3 x = f3_scale(r->row[0], v.x);
+    float3 y = f3_scale(r->row[1], v.y);
+    float3 z = f3_scale(r->row[2], v.z);
+    return f3_add(f3_add(x, y), z);
+}
+
+/* Component-wise a / b, 0 where b is 0 (Cycles' safe_divide). */
+static float3 safe_divide3(float3 a, float3 b)
+{
+    return make_float3(b.x != 0.0f ? a.x / b.x : 0.0f, b.y != 0.0f ? a.y / b.y : 0.0f,
+                       b.z != 0.0f ? a.z / b.z : 0.0f);
+}
+
+/* a / |a|, or a itself when it has no length (Cycles' safe_normalize). */
+static float3 safe_normalize3(float3 a)
+{
+    float len = f3_length(a);
+    return len != 0.0f ? f3_scale(a, 1.0f / len) : a;
+}
+
+static float3 svm_mapping(int type, float3 v, float3 location, float3 rotation, float3 scale)
+{
+    rotation3 r = euler_to_rotation(rotation);
+    switch (type) {
+    case MAPPING_POINT:
+        return f3_add(rotate(&r, f3_mul(v, scale)), location);
+    case MAPPING_TEXTURE:
+        return safe_divide3(rotate_inverse(&r, f3_sub(v, location)), scale);
+    case MAPPING_VECTOR:
+        return rotate(&r, f3_mul(v, scale));
+    case MAPPING_NORMAL:
+        return safe_normalize3(rotate(&r, safe_divide3(v, scale)));
+    default:
+        return make_float3(0.0f, 0.0f, 0.0f);
+    }
+}
+
+static void mapping_kernel(const sg_kernel_args *a)
+{
+    float *out = a->out[0];
+    if (!out)
+        return;
+    const int n = a->n;
+    const int type = a->prop[0];
+    for (int i = 0; i < n; i++) {
+        float3 v = f3_load(a->in[0], n, i);
+        float3 location = f3_load(a->in[1], n, i);
+        float3 rotation = f3_load(a->in[2], n, i);
+        float3 scale = f3_load(a->in[3], n, i);
+        f3_store(out, n, i, svm_mapping(type, v, location, rotation, scale));
+    }
+}
+
+#define MAPPING_BIT(t) (1u << (t))
+
+static const sg_socket_def mapping_inputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    /* Blender hides Location for directions. */
+    {"Location", "Location", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE,
+     MAPPING_BIT(MAPPING_POINT) | MAPPING_BIT(MAPPING_TEXTURE), 0, 0, 0},
+    {"Rotation", "Rotation", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Scale", "Scale", SG_SOCKET_VECTOR, {1.0f, 1.0f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_socket_def mapping_outputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+static const sg_prop_def mapping_props[] = {
+    {"vector_type", SG_PROP_ENUM, vector_type_values, MAPPING_POINT},
+};
+
+const sg_node_type node_type_mapping = {
+    "ShaderNodeMapping",
+    mapping_inputs,  COUNT(mapping_inputs),
+    mapping_outputs, COUNT(mapping_outputs),
+    mapping_props,   COUNT(mapping_props),
+    mapping_kernel,  0,
+};
