@@ -1,0 +1,792 @@
+/*
+ * Voronoi Texture (ShaderNodeTexVoronoi), as Cycles evaluates it (kernel/svm/voronoi.h of
+ * Blender 3.4 and 4.3), in 1, 2, 3 and 4 dimensions.
+ *
+ * Space is cut into unit cells; each cell holds one feature point, placed by hashing the
+ * cell's integer coordinates (as float bit patterns) and scaled by Randomness. The
+ * features are found by scanning the 3^d neighbouring cells (5^d for Smooth F1):
+ *
+ *   F1               distance to, colour of and position of the closest point
+ *   F2               the same for the second closest point
+ *   SMOOTH_F1        a smooth minimum over all points (Inigo Quilez' smooth Voronoi)
+ *   DISTANCE_TO_EDGE distance to the nearest cell border (always Euclidean)
+ *   N_SPHERE_RADIUS  half the distance from the closest point to its own closest point
+ *
+ * Blender 4.x layers octaves of this, like fBM noise (Detail, Roughness, Lacunarity,
+ * Normalize); Blender 3.x has no such sockets and evaluates one octave. The two releases
+ * also differ in small ways that show: 3.x starts its searches from a distance of 8 (so
+ * Minkowski distances beyond 8 are never found), 4.x from FLT_MAX; 3.x's smooth F1 blends
+ * its first point into that 8 and divides by a zero smoothness (which 4.x avoids by falling
+ * back to F1). Both behaviours are reproduced, selected by a->blender.
+ *
+ * The cell scan visits offsets with the first coordinate varying fastest, as Cycles does;
+ * the order matters where two points are at exactly the same distance (the first wins).
+ * Float operations follow Cycles' order so results agree to the last bits, except for
+ * reductions Cycles does with SIMD (4D dot products), where we use the SSE order.
+ */
+#include "shadergraph/node_type.h"
+#include "shadergraph/kernels/kernel_util.h"
+
+#include <float.h>
+#include <stdbool.h>
+
+/* Property indices (order of voronoi_props). */
+enum { PROP_DIMENSIONS, PROP_DISTANCE, PROP_FEATURE, PROP_NORMALIZE };
+
+/* Enum values, in Blender's RNA order. */
+enum { DIM_1D, DIM_2D, DIM_3D, DIM_4D };
+enum { METRIC_EUCLIDEAN, METRIC_MANHATTAN, METRIC_CHEBYCHEV, METRIC_MINKOWSKI };
+enum { FEATURE_F1, FEATURE_F2, FEATURE_SMOOTH_F1, FEATURE_DISTANCE_TO_EDGE, FEATURE_N_SPHERE_RADIUS };
+
+/* Input and output indices (order of the socket tables). */
+enum { IN_VECTOR, IN_W, IN_SCALE, IN_DETAIL, IN_ROUGHNESS, IN_LACUNARITY, IN_SMOOTHNESS,
+       IN_EXPONENT, IN_RANDOMNESS };
+enum { OUT_DISTANCE, OUT_COLOR, OUT_POSITION, OUT_W, OUT_RADIUS };
+
+/* A point of up to 4 dimensions; components past the dimension count are unused. */
+typedef struct vpoint {
+    float v[4];
+} vpoint;
+
+typedef struct voronoi_params {
+    int dims; /* 1..4 */
+    int feature;
+    int metric;
+    bool blender3; /* 3.x semantics: search sentinel 8, 3.x smooth F1, no octaves */
+    float detail, roughness, lacunarity; /* 4.x only */
+    float smoothness;                    /* already halved and clamped to [0, 0.5] */
+    float exponent;
+    float randomness; /* clamped to [0, 1] */
+    float max_distance;
+    bool normalize;
+} voronoi_params;
+
+typedef struct voronoi_result {
+    float distance;
+    float color[3];
+    vpoint position; /* x, y, z and W, laid out as Cycles' float4 position */
+} voronoi_result;
+
+/* ---- small helpers ----------------------------------------------------------------- */
+
+static inline float mixf(float a, float b, float t) { return a + t * (b - a); }
+/* Cycles' min/max/clamp, whose NaN behaviour differs from fminf/fmaxf. */
+static inline float minf(float a, float b) { return (a < b) ? a : b; }
+static inline float maxf(float a, float b) { return (a > b) ? a : b; }
+static inline float clampf(float x, float lo, float hi) { return minf(maxf(x, lo), hi); }
+
+static inline float smoothstepf(float edge0, float edge1, float x)
+{
+    /* Cycles' smoothstep; note a NaN x falls through to the polynomial and stays NaN. */
+    if (x < edge0)
+        return 0.0f;
+    if (x >= edge1)
+        return 1.0f;
+    float t = (x - edge0) / (edge1 - edge0);
+    return (3.0f - 2.0f * t) * (t * t);
+}
+
+static inline float dot_n(const vpoint *a, const vpoint *b, int dims)
+{
+    switch (dims) {
+    case 1:
+        return a->v[0] * b->v[0];
+    case 2:
+        return a->v[0] * b->v[0] + a->v[1] * b->v[1];
+    case 3:
+        return a->v[0] * b->v[0] + a->v[1] * b->v[1] + a->v[2] * b->v[2];
+    default: /* _mm_dp_ps sums pairwise */
+        return (a->v[0] * b->v[0] + a->v[1] * b->v[1]) + (a->v[2] * b->v[2] + a->v[3] * b->v[3]);
+    }
+}
+
+/* Distance between a and b in the node's metric (1D: always |b - a|). */
+static inline float voronoi_distance(const vpoint *a, const vpoint *b, const voronoi_params *p)
+{
+    const int dims = p->dims;
+    if (dims == 1)
+        return fabsf(b->v[0] - a->v[0]);
+    vpoint d = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++)
+        d.v[c] = a->v[c] - b->v[c];
+    switch (p->metric) {
+    case METRIC_EUCLIDEAN:
+        return sqrtf(dot_n(&d, &d, dims));
+    case METRIC_MANHATTAN: {
+        float s = fabsf(d.v[0]);
+        for (int c = 1; c < dims; c++)
+            s += fabsf(d.v[c]);
+        return s;
+    }
+    case METRIC_CHEBYCHEV: {
+        /* Cycles nests max from the last component outwards; max is exact either way. */
+        float m = fabsf(d.v[dims - 1]);
+        for (int c = dims - 2; c >= 0; c--)
+            m = maxf(fabsf(d.v[c]), m);
+        return m;
+    }
+    case METRIC_MINKOWSKI: {
+        float s = powf(fabsf(d.v[0]), p->exponent);
+        for (int c = 1; c < dims; c++)
+            s += powf(fabsf(d.v[c]), p->exponent);
+        return powf(s, 1.0f / p->exponent);
+    }
+    default:
+        return 0.0f;
+    }
+}
+
+static inline float euclidean_distance(const vpoint *a, const vpoint *b, int dims)
+{
+    if (dims == 1)
+        return fabsf(a->v[0] - b->v[0]);
+    vpoint d = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++)
+        d.v[c] = a->v[c] - b->v[c];
+    return sqrtf(dot_n(&d, &d, dims));
+}
+
+/* Where a cell's feature point sits inside it, in [0, 1]^d before Randomness: Cycles'
+ * hash_float{,2,3,4}_to_float{,2,3,4} of the cell's coordinates. */
+static inline vpoint cell_jitter(const vpoint *cell, int dims)
+{
+    const float *k = cell->v;
+    vpoint h = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    switch (dims) {
+    case 1:
+        h.v[0] = hash_float_to_float(k[0]);
+        break;
+    case 2:
+        h.v[0] = hash_float2_to_float(k[0], k[1]);
+        h.v[1] = hash_float3_to_float(make_float3(k[0], k[1], 1.0f));
+        break;
+    case 3: {
+        float3 r = hash_float3_to_float3(make_float3(k[0], k[1], k[2]));
+        h.v[0] = r.x;
+        h.v[1] = r.y;
+        h.v[2] = r.z;
+        break;
+    }
+    default:
+        h.v[0] = hash_float4_to_float(k[0], k[1], k[2], k[3]);
+        h.v[1] = hash_float4_to_float(k[3], k[0], k[1], k[2]);
+        h.v[2] = hash_float4_to_float(k[2], k[3], k[0], k[1]);
+        h.v[3] = hash_float4_to_float(k[1], k[2], k[3], k[0]);
+        break;
+    }
+    return h;
+}
+
+/* A cell's colour: Cycles' hash_float{,2,3,4}_to_float3 of its coordinates. */
+static inline void cell_color(const vpoint *cell, int dims, float out[3])
+{
+    const float *k = cell->v;
+    switch (dims) {
+    case 1:
+        out[0] = hash_float_to_float(k[0]);
+        out[1] = hash_float2_to_float(k[0], 1.0f);
+        out[2] = hash_float2_to_float(k[0], 2.0f);
+        break;
+    case 2:
+        out[0] = hash_float2_to_float(k[0], k[1]);
+        out[1] = hash_float3_to_float(make_float3(k[0], k[1], 1.0f));
+        out[2] = hash_float3_to_float(make_float3(k[0], k[1], 2.0f));
+        break;
+    case 3: {
+        float3 r = hash_float3_to_float3(make_float3(k[0], k[1], k[2]));
+        out[0] = r.x;
+        out[1] = r.y;
+        out[2] = r.z;
+        break;
+    }
+    default:
+        out[0] = hash_float4_to_float(k[0], k[1], k[2], k[3]);
+        out[1] = hash_float4_to_float(k[2], k[0], k[3], k[1]);
+        out[2] = hash_float4_to_float(k[3], k[2], k[1], k[0]);
+        break;
+    }
+}
+
+/* Offset number `idx` of a scan over [-radius, radius]^dims, first coordinate fastest. */
+static inline vpoint scan_offset(int idx, int radius, int dims)
+{
+    const int side = 2 * radius + 1;
+    vpoint o = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++) {
+        o.v[c] = (float)(idx % side - radius);
+        idx /= side;
+    }
+    return o;
+}
+
+static inline int scan_count(int radius, int dims)
+{
+    int side = 2 * radius + 1, n = 1;
+    for (int c = 0; c < dims; c++)
+        n *= side;
+    return n;
+}
+
+static inline void split_cell(const vpoint *coord, int dims, vpoint *cell, vpoint *local)
+{
+    *cell = *local = (vpoint){{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++) {
+        cell->v[c] = floorf(coord->v[c]);
+        local->v[c] = coord->v[c] - cell->v[c];
+    }
+}
+
+/* The feature point of the cell at `offset` from `cell`, relative to `cell`. */
+static inline vpoint feature_point(const vpoint *cell, const vpoint *offset, float randomness,
+                                   int dims, vpoint *neighbour)
+{
+    for (int c = 0; c < dims; c++)
+        neighbour->v[c] = cell->v[c] + offset->v[c];
+    vpoint h = cell_jitter(neighbour, dims);
+    vpoint pt = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++)
+        pt.v[c] = offset->v[c] + h.v[c] * randomness;
+    return pt;
+}
+
+/* Cycles' voronoi_position(): 1D puts the coordinate in W, 3D sets W to 1. */
+static inline vpoint to_position(const vpoint *x, int dims)
+{
+    vpoint r = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    switch (dims) {
+    case 1:
+        r.v[3] = x->v[0];
+        break;
+    case 2:
+        r.v[0] = x->v[0];
+        r.v[1] = x->v[1];
+        break;
+    case 3:
+        r = *x;
+        r.v[3] = 1.0f;
+        break;
+    default:
+        r = *x;
+        break;
+    }
+    return r;
+}
+
+/* Sentinel the nearest-point searches start from. */
+static inline float search_start(const voronoi_params *p) { return p->blender3 ? 8.0f : FLT_MAX; }
+
+/* ---- one octave -------------------------------------------------------------------- */
+
+static voronoi_result voronoi_f1(const voronoi_params *p, const vpoint *coord)
+{
+    const int dims = p->dims;
+    vpoint cell, local, neighbour;
+    split_cell(coord, dims, &cell, &local);
+
+    float min_distance = search_start(p);
+    vpoint target_offset = {{0.0f, 0.0f, 0.0f, 0.0f}}, target_point = target_offset;
+    const int n = scan_count(1, dims);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        float d = voronoi_distance(&pt, &local, p);
+        if (d < min_distance) {
+            target_offset = offset;
+            min_distance = d;
+            target_point = pt;
+        }
+    }
+
+    voronoi_result r;
+    r.distance = min_distance;
+    for (int c = 0; c < dims; c++)
+        neighbour.v[c] = cell.v[c] + target_offset.v[c];
+    cell_color(&neighbour, dims, r.color);
+    vpoint abs_point = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++)
+        abs_point.v[c] = target_point.v[c] + cell.v[c];
+    r.position = to_position(&abs_point, dims);
+    return r;
+}
+
+/* Smooth F1. 4.x takes the first point as it is (h = 1); 3.x blends it into a start
+ * distance of 8 like every other point, and evaluates smoothness 0 as a division by zero
+ * (which amounts to F1, or NaN on an exact tie) rather than switching to F1. */
+static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *coord)
+{
+    const int dims = p->dims;
+    const float smoothness = p->smoothness;
+    vpoint cell, local, neighbour;
+    split_cell(coord, dims, &cell, &local);
+
+    float smooth_distance = p->blender3 ? 8.0f : 0.0f;
+    float smooth_color[3] = {0.0f, 0.0f, 0.0f};
+    vpoint smooth_point = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    const int n = scan_count(2, dims);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 2, dims);
+        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        float d = voronoi_distance(&pt, &local, p);
+        float h = (idx == 0 && !p->blender3) ?
+                      1.0f :
+                      smoothstepf(0.0f, 1.0f, 0.5f + 0.5f * (smooth_distance - d) / smoothness);
+        float correction = smoothness * h * (1.0f - h);
+        smooth_distance = mixf(smooth_distance, d, h) - correction;
+        correction /= 1.0f + 3.0f * smoothness;
+        float color[3];
+        cell_color(&neighbour, dims, color);
+        for (int c = 0; c < 3; c++)
+            smooth_color[c] = mixf(smooth_color[c], color[c], h) - correction;
+        for (int c = 0; c < dims; c++)
+            smooth_point.v[c] = mixf(smooth_point.v[c], pt.v[c], h) - correction;
+    }
+
+    voronoi_result r;
+    r.distance = smooth_distance;
+    for (int c = 0; c < 3; c++)
+        r.color[c] = smooth_color[c];
+    vpoint abs_point = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    for (int c = 0; c < dims; c++)
+        abs_point.v[c] = cell.v[c] + smooth_point.v[c];
+    r.position = to_position(&abs_point, dims);
+    return r;
+}
+
+static voronoi_result voronoi_f2(const voronoi_params *p, const vpoint *coord)
+{
+    const int dims = p->dims;
+    vpoint cell, local, neighbour;
+    split_cell(coord, dims, &cell, &local);
+
+    float distance_f1 = search_start(p), distance_f2 = search_start(p);
+    const vpoint zero = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    vpoint offset_f1 = zero, point_f1 = zero, offset_f2 = zero, point_f2 = zero;
+    const int n = scan_count(1, dims);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        float d = voronoi_distance(&pt, &local, p);
+        if (d < distance_f1) {
+            distance_f2 = distance_f1;
+            distance_f1 = d;
+            offset_f2 = offset_f1;
+            offset_f1 = offset;
+            point_f2 = point_f1;
+            point_f1 = pt;
+        }
+        else if (d < distance_f2) {
+            distance_f2 = d;
+            offset_f2 = offset;
+            point_f2 = pt;
+        }
+    }
+
+    voronoi_result r;
+    r.distance = distance_f2;
+    for (int c = 0; c < dims; c++)
+        neighbour.v[c] = cell.v[c] + offset_f2.v[c];
+    cell_color(&neighbour, dims, r.color);
+    vpoint abs_point = zero;
+    for (int c = 0; c < dims; c++)
+        abs_point.v[c] = point_f2.v[c] + cell.v[c];
+    r.position = to_position(&abs_point, dims);
+    return r;
+}
+
+/* 1D has its own closed form: the borders are the midpoints to the two neighbours. */
+static float voronoi_distance_to_edge_1d(const voronoi_params *p, float w)
+{
+    float cell = floorf(w);
+    float local = w - cell;
+    float mid = hash_float_to_float(cell) * p->randomness;
+    float left = -1.0f + hash_float_to_float(cell - 1.0f) * p->randomness;
+    float right = 1.0f + hash_float_to_float(cell + 1.0f) * p->randomness;
+    float to_left = fabsf((mid + left) / 2.0f - local);
+    float to_right = fabsf((mid + right) / 2.0f - local);
+    return minf(to_left, to_right);
+}
+
+/* Distance from the point to the nearest border of its cell: the border with each other
+ * point is the bisecting plane; project onto its normal. Points closer than 1e-2 to the
+ * closest one (in practice: the closest one itself) are skipped. */
+static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coord)
+{
+    const int dims = p->dims;
+    if (dims == 1)
+        return voronoi_distance_to_edge_1d(p, coord->v[0]);
+    vpoint cell, local, neighbour;
+    split_cell(coord, dims, &cell, &local);
+
+    const int n = scan_count(1, dims);
+    vpoint to_closest = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    float min_distance = search_start(p);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        vpoint to_point = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        for (int c = 0; c < dims; c++)
+            to_point.v[c] -= local.v[c];
+        float d = dot_n(&to_point, &to_point, dims);
+        if (d < min_distance) {
+            min_distance = d;
+            to_closest = to_point;
+        }
+    }
+
+    min_distance = search_start(p);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        vpoint to_point = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        for (int c = 0; c < dims; c++)
+            to_point.v[c] -= local.v[c];
+        vpoint perpendicular = {{0.0f, 0.0f, 0.0f, 0.0f}};
+        for (int c = 0; c < dims; c++)
+            perpendicular.v[c] = to_point.v[c] - to_closest.v[c];
+        float perpendicular_sq = dot_n(&perpendicular, &perpendicular, dims);
+        if (perpendicular_sq > 0.0001f) {
+            float len = sqrtf(perpendicular_sq);
+            vpoint midpoint = {{0.0f, 0.0f, 0.0f, 0.0f}}, normal = midpoint;
+            for (int c = 0; c < dims; c++) {
+                midpoint.v[c] = (to_closest.v[c] + to_point.v[c]) / 2.0f;
+                normal.v[c] = perpendicular.v[c] / len;
+            }
+            min_distance = minf(min_distance, dot_n(&midpoint, &normal, dims));
+        }
+    }
+    return min_distance;
+}
+
+/* Half the distance between the closest point and the point closest to it (always
+ * Euclidean), searched around the closest point's cell. */
+static float voronoi_n_sphere_radius(const voronoi_params *p, const vpoint *coord)
+{
+    const int dims = p->dims;
+    vpoint cell, local, neighbour;
+    split_cell(coord, dims, &cell, &local);
+
+    const int n = scan_count(1, dims);
+    const vpoint zero = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    vpoint closest = zero, closest_offset = zero;
+    float min_distance = search_start(p);
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        float d = euclidean_distance(&pt, &local, dims);
+        if (d < min_distance) {
+            min_distance = d;
+            closest = pt;
+            closest_offset = offset;
+        }
+    }
+
+    min_distance = search_start(p);
+    vpoint closest_to_closest = zero;
+    for (int idx = 0; idx < n; idx++) {
+        vpoint offset = scan_offset(idx, 1, dims);
+        bool centre = true;
+        for (int c = 0; c < dims; c++) {
+            centre = centre && offset.v[c] == 0.0f;
+            offset.v[c] += closest_offset.v[c];
+        }
+        if (centre)
+            continue;
+        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        float d = euclidean_distance(&closest, &pt, dims);
+        if (d < min_distance) {
+            min_distance = d;
+            closest_to_closest = pt;
+        }
+    }
+    return euclidean_distance(&closest_to_closest, &closest, dims) / 2.0f;
+}
+
+static voronoi_result voronoi_octave(const voronoi_params *p, const vpoint *coord)
+{
+    if (p->feature == FEATURE_F2)
+        return voronoi_f2(p, coord);
+    /* 4.x falls back to F1 when smoothness is 0; 3.x divides by it (see above). */
+    if (p->feature == FEATURE_SMOOTH_F1 && (p->blender3 || p->smoothness != 0.0f))
+        return voronoi_smooth_f1(p, coord);
+    return voronoi_f1(p, coord);
+}
+
+/* ---- octaves (4.x) ----------------------------------------------------------------- */
+
+static inline vpoint scaled(const vpoint *x, float s)
+{
+    vpoint r = *x;
+    for (int c = 0; c < 4; c++)
+        r.v[c] = x->v[c] * s;
+    return r;
+}
+
+/* fBM over octaves, with the positions blended rather than summed. A fractional Detail
+ * blends in the last octave by its fraction. Detail 0 or Roughness 0 is one octave. */
+static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coord)
+{
+    float amplitude = 1.0f, max_amplitude = 0.0f, scale = 1.0f;
+    voronoi_result out = {0.0f, {0.0f, 0.0f, 0.0f}, {{0.0f, 0.0f, 0.0f, 0.0f}}};
+    const bool one_octave = p->blender3 || p->detail == 0.0f || p->roughness == 0.0f;
+
+    for (int i = 0; (float)i <= ceilf(p->detail); ++i) {
+        vpoint x = scaled(coord, scale);
+        voronoi_result octave = voronoi_octave(p, &x);
+        if (one_octave) {
+            max_amplitude = 1.0f;
+            out = octave;
+            break;
+        }
+        if ((float)i <= p->detail) {
+            max_amplitude += amplitude;
+            out.distance += octave.distance * amplitude;
+            for (int c = 0; c < 3; c++)
+                out.color[c] += octave.color[c] * amplitude;
+            for (int c = 0; c < 4; c++)
+                out.position.v[c] = mixf(out.position.v[c], octave.position.v[c] / scale, amplitude);
+            scale *= p->lacunarity;
+            amplitude *= p->roughness;
+        }
+        else {
+            float remainder = p->detail - floorf(p->detail);
+            if (remainder != 0.0f) {
+                max_amplitude = mixf(max_amplitude, max_amplitude + amplitude, remainder);
+                out.distance = mixf(out.distance, out.distance + octave.distance * amplitude,
+                                    remainder);
+                for (int c = 0; c < 3; c++)
+                    out.color[c] = mixf(out.color[c], out.color[c] + octave.color[c] * amplitude,
+                                        remainder);
+                for (int c = 0; c < 4; c++)
+                    out.position.v[c] = mixf(
+                        out.position.v[c],
+                        mixf(out.position.v[c], octave.position.v[c] / scale, amplitude),
+                        remainder);
+            }
+        }
+    }
+
+    if (p->normalize && !p->blender3) {
+        out.distance /= max_amplitude * p->max_distance;
+        for (int c = 0; c < 3; c++)
+            out.color[c] /= max_amplitude;
+    }
+    return out;
+}
+
+/* The same fBM for the distance to edges: octaves can only bring edges closer. */
+static float fractal_distance_to_edge(const voronoi_params *p, const vpoint *coord)
+{
+    if (p->blender3)
+        return voronoi_distance_to_edge(p, coord);
+
+    float amplitude = 1.0f, max_amplitude = p->max_distance, scale = 1.0f, distance = 8.0f;
+    const bool one_octave = p->detail == 0.0f || p->roughness == 0.0f;
+
+    for (int i = 0; (float)i <= ceilf(p->detail); ++i) {
+        vpoint x = scaled(coord, scale);
+        const float octave_distance = voronoi_distance_to_edge(p, &x);
+        if (one_octave) {
+            distance = octave_distance;
+            break;
+        }
+        if ((float)i <= p->detail) {
+            max_amplitude = mixf(max_amplitude, p->max_distance / scale, amplitude);
+            distance = mixf(distance, minf(distance, octave_distance / scale), amplitude);
+            scale *= p->lacunarity;
+            amplitude *= p->roughness;
+        }
+        else {
+            float remainder = p->detail - floorf(p->detail);
+            if (remainder != 0.0f) {
+                float lerp_amplitude = mixf(max_amplitude, p->max_distance / scale, amplitude);
+                max_amplitude = mixf(max_amplitude, lerp_amplitude, remainder);
+                float lerp_distance = mixf(distance, minf(distance, octave_distance / scale),
+                                           amplitude);
+                distance = mixf(distance, minf(distance, lerp_distance), remainder);
+            }
+        }
+    }
+
+    if (p->normalize)
+        distance /= max_amplitude;
+    return distance;
+}
+
+/* Largest F1 distance within a cell for this metric (F2: twice that), used by Normalize. */
+static float voronoi_max_distance(const voronoi_params *p)
+{
+    const float half = 0.5f + 0.5f * p->randomness;
+    const float factor = p->feature == FEATURE_F2 ? 2.0f : 1.0f;
+    if (p->dims == 1)
+        return half * factor;
+    const vpoint zero = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    const vpoint corner = {{half, half, half, half}};
+    return voronoi_distance(&zero, &corner, p) * factor;
+}
+
+/* ---- batch ------------------------------------------------------------------------- */
+
+/* Inlined once per dimension count, so the per-point code sees `dims` as a constant. */
+static inline void voronoi_batch(const sg_kernel_args *a, int dims)
+{
+    const int n = a->n;
+    const float *const *in = a->in;
+    float *const *out = a->out;
+    const bool blender3 = a->blender == SG_BLENDER_3;
+
+    voronoi_params base;
+    base.dims = dims;
+    base.feature = a->prop[PROP_FEATURE];
+    base.metric = a->prop[PROP_DISTANCE];
+    base.blender3 = blender3;
+    base.normalize = a->prop[PROP_NORMALIZE] != 0;
+
+    for (int i = 0; i < n; i++) {
+        voronoi_params p = base;
+        const float scale = in[IN_SCALE][i];
+        p.detail = clampf(in[IN_DETAIL][i], 0.0f, 15.0f);
+        p.roughness = clampf(in[IN_ROUGHNESS][i], 0.0f, 1.0f);
+        p.lacunarity = in[IN_LACUNARITY][i];
+        p.smoothness = clampf(in[IN_SMOOTHNESS][i] / 2.0f, 0.0f, 0.5f);
+        p.exponent = in[IN_EXPONENT][i];
+        p.randomness = clampf(in[IN_RANDOMNESS][i], 0.0f, 1.0f);
+        p.max_distance = 0.0f;
+
+        /* The vector is read for 2D-4D, W for 1D and 4D. */
+        vpoint coord = {{0.0f, 0.0f, 0.0f, 0.0f}};
+        const float w = in[IN_W][i] * scale;
+        if (dims == 1) {
+            coord.v[0] = w;
+        }
+        else {
+            float3 v = f3_load(in[IN_VECTOR], n, i);
+            coord.v[0] = v.x * scale;
+            coord.v[1] = v.y * scale;
+            if (dims >= 3)
+                coord.v[2] = v.z * scale;
+            if (dims == 4)
+                coord.v[3] = w;
+        }
+
+        float distance = 0.0f, radius = 0.0f;
+        float color[3] = {0.0f, 0.0f, 0.0f};
+        vpoint position = {{0.0f, 0.0f, 0.0f, 0.0f}};
+        if (p.feature == FEATURE_DISTANCE_TO_EDGE) {
+            p.max_distance = 0.5f + 0.5f * p.randomness;
+            distance = fractal_distance_to_edge(&p, &coord);
+        }
+        else if (p.feature == FEATURE_N_SPHERE_RADIUS) {
+            radius = voronoi_n_sphere_radius(&p, &coord);
+        }
+        else {
+            p.max_distance = voronoi_max_distance(&p);
+            voronoi_result r = fractal_voronoi(&p, &coord);
+            distance = r.distance;
+            for (int c = 0; c < 3; c++)
+                color[c] = r.color[c];
+            /* safe_divide by the scale; 3.x divides the position it outputs (W in 1D,
+             * x and y in 2D), which gives the same numbers. */
+            for (int c = 0; c < 4; c++)
+                position.v[c] = scale != 0.0f ? r.position.v[c] / scale : 0.0f;
+        }
+
+        if (out[OUT_DISTANCE])
+            out[OUT_DISTANCE][i] = distance;
+        if (out[OUT_COLOR])
+            f3_store(out[OUT_COLOR], n, i, make_float3(color[0], color[1], color[2]));
+        if (out[OUT_POSITION])
+            f3_store(out[OUT_POSITION], n, i,
+                     make_float3(position.v[0], position.v[1], position.v[2]));
+        if (out[OUT_W])
+            out[OUT_W][i] = position.v[3];
+        if (out[OUT_RADIUS])
+            out[OUT_RADIUS][i] = radius;
+    }
+}
+
+static void voronoi_kernel_1d(const sg_kernel_args *a) { voronoi_batch(a, 1); }
+static void voronoi_kernel_2d(const sg_kernel_args *a) { voronoi_batch(a, 2); }
+static void voronoi_kernel_3d(const sg_kernel_args *a) { voronoi_batch(a, 3); }
+static void voronoi_kernel_4d(const sg_kernel_args *a) { voronoi_batch(a, 4); }
+
+static void voronoi_kernel(const sg_kernel_args *a)
+{
+    switch (a->prop[PROP_DIMENSIONS]) {
+    case DIM_1D:
+        voronoi_kernel_1d(a);
+        break;
+    case DIM_2D:
+        voronoi_kernel_2d(a);
+        break;
+    case DIM_4D:
+        voronoi_kernel_4d(a);
+        break;
+    default:
+        voronoi_kernel_3d(a);
+        break;
+    }
+}
+
+/* ---- node description -------------------------------------------------------------- */
+
+#define BIT(x) (1u << (x))
+#define DIMS_VECTOR (BIT(DIM_2D) | BIT(DIM_3D) | BIT(DIM_4D))
+#define DIMS_W (BIT(DIM_1D) | BIT(DIM_4D))
+#define FEATURES_CELL (BIT(FEATURE_F1) | BIT(FEATURE_F2) | BIT(FEATURE_SMOOTH_F1))
+#define FEATURES_FRACTAL (FEATURES_CELL | BIT(FEATURE_DISTANCE_TO_EDGE))
+
+/* Blender 4.3's sockets. Exponent also needs dimensions != 1D in Blender, a third
+ * condition the table cannot express; in 1D it is ignored by the kernel anyway. */
+static const sg_socket_def voronoi_inputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f, 0.0f}, SG_IMPLICIT_GENERATED,
+     DIMS_VECTOR, PROP_DIMENSIONS, 0, 0},
+    {"W", "W", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DIMS_W, PROP_DIMENSIONS, 0, 0},
+    {"Scale", "Scale", SG_SOCKET_FLOAT, {5.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Detail", "Detail", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, FEATURES_FRACTAL,
+     PROP_FEATURE, 0, 0},
+    {"Roughness", "Roughness", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, FEATURES_FRACTAL,
+     PROP_FEATURE, 0, 0},
+    {"Lacunarity", "Lacunarity", SG_SOCKET_FLOAT, {2.0f}, SG_IMPLICIT_NONE, FEATURES_FRACTAL,
+     PROP_FEATURE, 0, 0},
+    {"Smoothness", "Smoothness", SG_SOCKET_FLOAT, {1.0f}, SG_IMPLICIT_NONE,
+     BIT(FEATURE_SMOOTH_F1), PROP_FEATURE, 0, 0},
+    {"Exponent", "Exponent", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, BIT(METRIC_MINKOWSKI),
+     PROP_DISTANCE, FEATURES_CELL, PROP_FEATURE},
+    {"Randomness", "Randomness", SG_SOCKET_FLOAT, {1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+static const sg_socket_def voronoi_outputs[] = {
+    {"Distance", "Distance", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, FEATURES_FRACTAL,
+     PROP_FEATURE, 0, 0},
+    {"Color", "Color", SG_SOCKET_COLOR, {0.0f, 0.0f, 0.0f, 1.0f}, SG_IMPLICIT_NONE,
+     FEATURES_CELL, PROP_FEATURE, 0, 0},
+    {"Position", "Position", SG_SOCKET_VECTOR, {0.0f}, SG_IMPLICIT_NONE, FEATURES_CELL,
+     PROP_FEATURE, DIMS_VECTOR, PROP_DIMENSIONS},
+    {"W", "W", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, FEATURES_CELL, PROP_FEATURE, DIMS_W,
+     PROP_DIMENSIONS},
+    {"Radius", "Radius", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE,
+     BIT(FEATURE_N_SPHERE_RADIUS), PROP_FEATURE, 0, 0},
+};
+
+static const char *const voronoi_dimensions[] = {"1D", "2D", "3D", "4D", NULL};
+static const char *const voronoi_metrics[] = {"EUCLIDEAN", "MANHATTAN", "CHEBYCHEV", "MINKOWSKI",
+                                              NULL};
+static const char *const voronoi_features[] = {"F1", "F2", "SMOOTH_F1", "DISTANCE_TO_EDGE",
+                                               "N_SPHERE_RADIUS", NULL};
+
+static const sg_prop_def voronoi_props[] = {
+    [PROP_DIMENSIONS] = {"voronoi_dimensions", SG_PROP_ENUM, voronoi_dimensions, DIM_3D},
+    [PROP_DISTANCE] = {"distance", SG_PROP_ENUM, voronoi_metrics, METRIC_EUCLIDEAN},
+    [PROP_FEATURE] = {"feature", SG_PROP_ENUM, voronoi_features, FEATURE_F1},
+    [PROP_NORMALIZE] = {"normalize", SG_PROP_BOOL, NULL, 0},
+};
+
+const sg_node_type node_type_tex_voronoi = {
+    "ShaderNodeTexVoronoi",
+    voronoi_inputs,
+    (int)(sizeof voronoi_inputs / sizeof voronoi_inputs[0]),
+    voronoi_outputs,
+    (int)(sizeof voronoi_outputs / sizeof voronoi_outputs[0]),
+    voronoi_props,
+    (int)(sizeof voronoi_props / sizeof voronoi_props[0]),
+    voronoi_kernel,
+    0,
+};
