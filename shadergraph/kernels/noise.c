@@ -1,0 +1,803 @@
+/*
+ * Noise Texture and White Noise Texture, as Cycles evaluates them.
+ *
+ * Sources of truth: Cycles' kernel/svm/noise.h (Perlin noise), fractal_noise.h and
+ * noisetex.h (the Noise Texture node) and white_noise.h, in Blender 4.3 for the default
+ * mode; in Blender 3.4 for SG_BLENDER_3, plus 3.4's musgrave.h (see below).
+ *
+ * Bit-closeness. Blender's x86-64 builds run Cycles' AVX2 kernel on any CPU that has
+ * it, and that kernel is compiled by GCC with FMA enabled and the C++ default of
+ * -ffp-contract=fast, so every `a * b + c` whose product feeds the sum directly becomes
+ * one fused multiply-add there. The project compiles with -ffp-contract=off, so the
+ * fusions are written out here with fmaf() (madd) exactly where that kernel has them;
+ * everything else is plain float arithmetic in Cycles' order. The SIMD Perlin code
+ * interpolates along x, then y, then z (4D: w first); the fade polynomial uses the
+ * SIMD form (t*t)*(t*b) for 2D-4D and the scalar form for 1D, as Cycles does.
+ *
+ * Blender 3.x mode. Blender 3.4's Noise Texture knows only normalized fBM with
+ * lacunarity 2; the other noise types of our (4.x) vocabulary, and fBM without
+ * normalization, are built in 3.4 as a Musgrave Texture by blender/compat_noise.py
+ * (Detail + 1, Dimension = -ln(Roughness) / ln(Lacunarity)). In SG_BLENDER_3 this file
+ * computes what Blender 3.4 renders for that translated node. What 3.4 cannot express
+ * (Distortion or Color on a Musgrave translation, fBM normalized with lacunarity != 2,
+ * ...) is listed in compat_noise.py; the kernel still returns 3.4's value for the
+ * translated node (Color = Fac on a Musgrave), and the compiler is expected to reject
+ * such nodes in 3.x mode.
+ */
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "shadergraph/kernels/kernel_util.h"
+#include "shadergraph/node_type.h"
+
+/* ---- properties ------------------------------------------------------------------ */
+
+static const char *const noise_dimensions_values[] = {"1D", "2D", "3D", "4D", NULL};
+enum { DIMS_1D, DIMS_2D, DIMS_3D, DIMS_4D };
+
+/* Blender's RNA order (which is also 3.4's musgrave_type order). */
+static const char *const noise_type_values[] = {"MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
+                                                "HYBRID_MULTIFRACTAL", "FBM",
+                                                "HETERO_TERRAIN", NULL};
+enum { TYPE_MULTIFRACTAL, TYPE_RIDGED, TYPE_HYBRID, TYPE_FBM, TYPE_HETERO };
+
+/* ---- float helpers with Cycles' rounding ----------------------------------------- */
+
+/* A product that the AVX2 kernel fuses into the following sum: a * b + c. */
+static inline float madd(float a, float b, float c) { return fmaf(a, b, c); }
+
+/* Cycles' mix(a, b, t) = a + t * (b - a), fused. */
+static inline float lerp(float a, float b, float t) { return madd(t, b - a, a); }
+
+/* The SIMD mix of Cycles' vector Perlin code: 4.x's float4 mix is a + t * (b - a); 3.4's
+ * ssef mix was madd(t, b, (1 - t) * a). */
+static inline float simd_mix(float a, float b, float t, bool blender3)
+{
+    return blender3 ? madd(t, b, (1.0f - t) * a) : lerp(a, b, t);
+}
+
+static inline float clampf(float x, float lo, float hi) { return fminf(fmaxf(x, lo), hi); }
+
+/* floor and fraction; the integer part is what cvttss2si/cvttps2dq produce, which is
+ * INT32_MIN ("integer indefinite") for NaN and anything outside int32 range. Blender
+ * 3.4 has no wrapping of large coordinates, so that case is reachable there. */
+static inline float floor_frac(float x, int32_t *i)
+{
+    float f = floorf(x);
+    *i = (f >= -2147483648.0f && f < 2147483648.0f) ? (int32_t)f : INT32_MIN;
+    return x - f;
+}
+
+/* ---- Perlin noise ---------------------------------------------------------------- */
+
+static inline float fade_scalar(float t)
+{
+    return t * t * t * madd(t, madd(t, 6.0f, -15.0f), 10.0f);
+}
+
+static inline float fade_simd(float t)
+{
+    float b = madd(t, madd(t, 6.0f, -15.0f), 10.0f);
+    return (t * t) * (t * b);
+}
+
+static inline float negate_if(float v, uint32_t condition) { return condition ? -v : v; }
+
+static inline float grad1(uint32_t hash, float x)
+{
+    uint32_t h = hash & 15u;
+    float g = (float)(1u + (h & 7u));
+    return negate_if(g, h & 8u) * x;
+}
+
+static inline float grad2(uint32_t hash, float x, float y)
+{
+    uint32_t h = hash & 7u;
+    float u = h < 4u ? x : y;
+    float v = 2.0f * (h < 4u ? y : x);
+    return negate_if(u, h & 1u) + negate_if(v, h & 2u);
+}
+
+static inline float grad3(uint32_t hash, float x, float y, float z)
+{
+    uint32_t h = hash & 15u;
+    float u = h < 8u ? x : y;
+    float vt = (h == 12u || h == 14u) ? x : z;
+    float v = h < 4u ? y : vt;
+    return negate_if(u, h & 1u) + negate_if(v, h & 2u);
+}
+
+static inline float grad4(uint32_t hash, float x, float y, float z, float w)
+{
+    uint32_t h = hash & 31u;
+    float u = h < 24u ? x : y;
+    float v = h < 16u ? y : z;
+    float s = h < 8u ? z : w;
+    return negate_if(u, h & 1u) + negate_if(v, h & 2u) + negate_if(s, h & 4u);
+}
+
+static float perlin_1d(float x)
+{
+    int32_t ix;
+    float fx = floor_frac(x, &ix);
+    uint32_t X = (uint32_t)ix;
+    float u = fade_scalar(fx);
+    /* mix(a, b, u) = a + u * (b - a) with a = g0 * fx and b = g1 * (fx - 1): the product
+     * a fuses into both of its sums, b stays a product. */
+    float g0 = grad1(hash_uint(X), 1.0f), g1 = grad1(hash_uint(X + 1u), 1.0f);
+    float b = g1 * (fx - 1.0f);
+    return madd(g0, fx, u * madd(-g0, fx, b));
+}
+
+static float perlin_2d(float x, float y, bool b3)
+{
+    int32_t ix, iy;
+    float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy);
+    uint32_t X = (uint32_t)ix, Y = (uint32_t)iy;
+    float u = fade_simd(fx), v = fade_simd(fy);
+    float fx1 = fx - 1.0f, fy1 = fy - 1.0f;
+
+    float g00 = grad2(hash_uint2(X, Y), fx, fy);
+    float g01 = grad2(hash_uint2(X, Y + 1u), fx, fy1);
+    float g10 = grad2(hash_uint2(X + 1u, Y), fx1, fy);
+    float g11 = grad2(hash_uint2(X + 1u, Y + 1u), fx1, fy1);
+    return simd_mix(simd_mix(g00, g10, u, b3), simd_mix(g01, g11, u, b3), v, b3);
+}
+
+/* Gradient at corner (X+dx, Y+dy, Z+dz) of the cell, relative position (fx, fy, fz). */
+#define CORNER3(dx, dy, dz)                                                                \
+    grad3(hash_uint3(X + (dx), Y + (dy), Z + (dz)), (dx) ? fx1 : fx, (dy) ? fy1 : fy,     \
+          (dz) ? fz1 : fz)
+
+static float perlin_3d(float x, float y, float z, bool b3)
+{
+    int32_t ix, iy, iz;
+    float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy), fz = floor_frac(z, &iz);
+    uint32_t X = (uint32_t)ix, Y = (uint32_t)iy, Z = (uint32_t)iz;
+    float u = fade_simd(fx), v = fade_simd(fy), w = fade_simd(fz);
+    float fx1 = fx - 1.0f, fy1 = fy - 1.0f, fz1 = fz - 1.0f;
+
+    /* x first, then y, then z. */
+    float s00 = simd_mix(CORNER3(0u, 0u, 0u), CORNER3(1u, 0u, 0u), u, b3);
+    float s01 = simd_mix(CORNER3(0u, 0u, 1u), CORNER3(1u, 0u, 1u), u, b3);
+    float s10 = simd_mix(CORNER3(0u, 1u, 0u), CORNER3(1u, 1u, 0u), u, b3);
+    float s11 = simd_mix(CORNER3(0u, 1u, 1u), CORNER3(1u, 1u, 1u), u, b3);
+    return simd_mix(simd_mix(s00, s10, v, b3), simd_mix(s01, s11, v, b3), w, b3);
+}
+#undef CORNER3
+
+#define CORNER4(dx, dy, dz, dw)                                                            \
+    grad4(hash_uint4(X + (dx), Y + (dy), Z + (dz), W + (dw)), (dx) ? fx1 : fx,            \
+          (dy) ? fy1 : fy, (dz) ? fz1 : fz, (dw) ? fw1 : fw)
+
+/* The w-interpolated value at corner (dx, dy, dz). */
+#define WMIX(dx, dy, dz) simd_mix(CORNER4(dx, dy, dz, 0u), CORNER4(dx, dy, dz, 1u), t, b3)
+
+static float perlin_4d(float x, float y, float z, float w, bool b3)
+{
+    int32_t ix, iy, iz, iw;
+    float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy), fz = floor_frac(z, &iz),
+          fw = floor_frac(w, &iw);
+    uint32_t X = (uint32_t)ix, Y = (uint32_t)iy, Z = (uint32_t)iz, W = (uint32_t)iw;
+    float u = fade_simd(fx), v = fade_simd(fy), s = fade_simd(fz), t = fade_simd(fw);
+    float fx1 = fx - 1.0f, fy1 = fy - 1.0f, fz1 = fz - 1.0f, fw1 = fw - 1.0f;
+
+    /* w first, then x, y, z (Cycles' AVX quad_mix). */
+    float s00 = simd_mix(WMIX(0u, 0u, 0u), WMIX(1u, 0u, 0u), u, b3);
+    float s01 = simd_mix(WMIX(0u, 0u, 1u), WMIX(1u, 0u, 1u), u, b3);
+    float s10 = simd_mix(WMIX(0u, 1u, 0u), WMIX(1u, 1u, 0u), u, b3);
+    float s11 = simd_mix(WMIX(0u, 1u, 1u), WMIX(1u, 1u, 1u), u, b3);
+    return simd_mix(simd_mix(s00, s10, v, b3), simd_mix(s01, s11, v, b3), s, b3);
+}
+#undef WMIX
+#undef CORNER4
+
+/* ---- signed noise of a 1-4D point, per Blender version --------------------------- */
+
+/* A point of 1 to 4 dimensions; 1D uses x only (Blender's W), 2D x and y, 3D x, y, z. */
+typedef struct npoint {
+    float x, y, z, w;
+} npoint;
+
+static inline npoint np_scale(npoint p, float s)
+{
+    npoint r = {p.x * s, p.y * s, p.z * s, p.w * s};
+    return r;
+}
+static inline npoint np_add(npoint a, npoint b)
+{
+    npoint r = {a.x + b.x, a.y + b.y, a.z + b.z, a.w + b.w};
+    return r;
+}
+
+/* How a noise evaluation is done: dimensions and Blender version. Constant per node. */
+typedef struct noise_mode {
+    int dims;
+    bool blender3;
+} noise_mode;
+
+/* Blender 4.x repeats noise every 100000 on each axis to keep float precision, and
+ * shifts coordinates at or beyond 1e6 by half a cell (Cycles: "precision correction"). */
+static inline float wrap_coordinate(float p)
+{
+    float correction = 0.5f * (float)(fabsf(p) >= 1000000.0f);
+    return fmodf(p, 100000.0f) + correction;
+}
+
+/* Blender 3.x replaces a non-finite Perlin value (from non-finite coordinates) by 0. */
+static inline float finite_or_zero(float v) { return isfinite(v) ? v : 0.0f; }
+
+/* Unscaled Perlin noise of the point, per version; snoise = scale * perlin. */
+static float perlin(noise_mode m, npoint p)
+{
+    if (m.blender3) {
+        switch (m.dims) {
+        case DIMS_1D: return finite_or_zero(perlin_1d(p.x));
+        case DIMS_2D: return finite_or_zero(perlin_2d(p.x, p.y, true));
+        case DIMS_3D: return finite_or_zero(perlin_3d(p.x, p.y, p.z, true));
+        default: return finite_or_zero(perlin_4d(p.x, p.y, p.z, p.w, true));
+        }
+    }
+    switch (m.dims) {
+    case DIMS_1D: return perlin_1d(wrap_coordinate(p.x));
+    case DIMS_2D: return perlin_2d(wrap_coordinate(p.x), wrap_coordinate(p.y), false);
+    case DIMS_3D:
+        return perlin_3d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z),
+                         false);
+    default:
+        return perlin_4d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z),
+                         wrap_coordinate(p.w), false);
+    }
+}
+
+/* Cycles' noise_scale1..4: maps Perlin noise to about [-1, 1]. */
+static inline float noise_scale(int dims)
+{
+    static const float scales[4] = {0.2500f, 0.6616f, 0.9820f, 0.8344f};
+    return scales[dims];
+}
+
+static inline float snoise(noise_mode m, npoint p) { return noise_scale(m.dims) * perlin(m, p); }
+
+/* snoise(p) + offset: the scaling product fuses into the sum. */
+static inline float snoise_plus(noise_mode m, npoint p, float offset)
+{
+    return madd(noise_scale(m.dims), perlin(m, p), offset);
+}
+
+/* ---- Blender 4.x fractals (fractal_noise.h) -------------------------------------- */
+
+static float fbm4(noise_mode m, npoint p, float detail, float roughness, float lacunarity,
+                  bool normalize)
+{
+    float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
+    int n = (int)detail;
+    for (int i = 0; i <= n; i++) {
+        float t = snoise(m, np_scale(p, fscale));
+        sum = madd(t, amp, sum);
+        maxamp += amp;
+        amp *= roughness;
+        fscale *= lacunarity;
+    }
+    float rmd = detail - floorf(detail);
+    if (rmd != 0.0f) {
+        float t = snoise(m, np_scale(p, fscale));
+        float sum2 = madd(t, amp, sum);
+        if (normalize)
+            return lerp(0.5f * sum / maxamp + 0.5f, 0.5f * sum2 / (maxamp + amp) + 0.5f, rmd);
+        return lerp(sum, sum2, rmd);
+    }
+    return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
+}
+
+static float multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+                            float lacunarity)
+{
+    float value = 1.0f, pwr = 1.0f;
+    int n = (int)detail;
+    for (int i = 0; i <= n; i++) {
+        value *= madd(pwr, snoise(m, p), 1.0f);
+        pwr *= roughness;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = detail - floorf(detail);
+    if (rmd != 0.0f)
+        value *= madd(rmd * pwr, snoise(m, p), 1.0f);
+    return value;
+}
+
+static float hetero_terrain4(noise_mode m, npoint p, float detail, float roughness,
+                             float lacunarity, float offset)
+{
+    float pwr = roughness;
+    /* The first octave is unscaled; later ones are scaled by the value so far. */
+    float value = snoise_plus(m, p, offset);
+    p = np_scale(p, lacunarity);
+    int n = (int)detail;
+    for (int i = 1; i <= n; i++) {
+        float increment = snoise_plus(m, p, offset) * pwr;
+        value = madd(increment, value, value);
+        pwr *= roughness;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = detail - floorf(detail);
+    if (rmd != 0.0f) {
+        float increment = snoise_plus(m, p, offset) * pwr * value;
+        value = madd(rmd, increment, value);
+    }
+    return value;
+}
+
+static float hybrid_multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+                                   float lacunarity, float offset, float gain)
+{
+    float pwr = 1.0f, value = 0.0f, weight = 1.0f;
+    int n = (int)detail;
+    for (int i = 0; weight > 0.001f && i <= n; i++) {
+        if (weight > 1.0f)
+            weight = 1.0f;
+        float signal = snoise_plus(m, p, offset) * pwr;
+        pwr *= roughness;
+        value = madd(weight, signal, value);
+        weight *= gain * signal;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = detail - floorf(detail);
+    if (rmd != 0.0f && weight > 0.001f) {
+        if (weight > 1.0f)
+            weight = 1.0f;
+        float signal = snoise_plus(m, p, offset) * pwr;
+        value = madd(rmd * weight, signal, value);
+    }
+    return value;
+}
+
+static float ridged_multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+                                   float lacunarity, float offset, float gain)
+{
+    float pwr = roughness;
+    float signal = offset - fabsf(snoise(m, p));
+    signal *= signal;
+    float value = signal, weight = 1.0f;
+    int n = (int)detail;
+    for (int i = 1; i <= n; i++) {
+        p = np_scale(p, lacunarity);
+        weight = clampf(signal * gain, 0.0f, 1.0f);
+        signal = offset - fabsf(snoise(m, p));
+        signal *= signal;
+        signal *= weight;
+        value = madd(signal, pwr, value);
+        pwr *= roughness;
+    }
+    return value;
+}
+
+/* ---- Blender 3.4's Noise Texture fBM (fractal_noise.h of 3.4) --------------------- */
+
+static float fractal_noise3(noise_mode m, npoint p, float octaves, float roughness)
+{
+    float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
+    octaves = clampf(octaves, 0.0f, 15.0f);
+    roughness = clampf(roughness, 0.0f, 1.0f);
+    int n = (int)octaves;
+    for (int i = 0; i <= n; i++) {
+        float t = madd(0.5f, snoise(m, np_scale(p, fscale)), 0.5f);
+        sum = madd(t, amp, sum);
+        maxamp += amp;
+        amp *= roughness;
+        fscale *= 2.0f;
+    }
+    float rmd = octaves - floorf(octaves);
+    if (rmd != 0.0f) {
+        float t = madd(0.5f, snoise(m, np_scale(p, fscale)), 0.5f);
+        float sum2 = madd(t, amp, sum);
+        sum /= maxamp;
+        sum2 /= maxamp + amp;
+        return madd(rmd, sum2, (1.0f - rmd) * sum);
+    }
+    return sum / maxamp;
+}
+
+/* ---- Blender 3.4's Musgrave Texture (musgrave.h of 3.4) -------------------------- */
+
+static float musgrave_fbm3(noise_mode m, npoint p, float H, float lacunarity, float octaves)
+{
+    float value = 0.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
+    int n = (int)octaves;
+    for (int i = 0; i < n; i++) {
+        value = madd(snoise(m, p), pwr, value);
+        pwr *= pwHL;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = octaves - floorf(octaves);
+    if (rmd != 0.0f)
+        value = madd(rmd * snoise(m, p), pwr, value);
+    return value;
+}
+
+static float musgrave_multi_fractal3(noise_mode m, npoint p, float H, float lacunarity,
+                                     float octaves)
+{
+    float value = 1.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
+    int n = (int)octaves;
+    for (int i = 0; i < n; i++) {
+        value *= madd(pwr, snoise(m, p), 1.0f);
+        pwr *= pwHL;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = octaves - floorf(octaves);
+    if (rmd != 0.0f)
+        value *= madd(rmd * pwr, snoise(m, p), 1.0f);
+    return value;
+}
+
+static float musgrave_hetero_terrain3(noise_mode m, npoint p, float H, float lacunarity,
+                                      float octaves, float offset)
+{
+    float pwHL = powf(lacunarity, -H), pwr = pwHL;
+    float value = snoise_plus(m, p, offset);
+    p = np_scale(p, lacunarity);
+    int n = (int)octaves;
+    for (int i = 1; i < n; i++) {
+        float increment = snoise_plus(m, p, offset) * pwr;
+        value = madd(increment, value, value);
+        pwr *= pwHL;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = octaves - floorf(octaves);
+    if (rmd != 0.0f) {
+        float increment = snoise_plus(m, p, offset) * pwr * value;
+        value = madd(rmd, increment, value);
+    }
+    return value;
+}
+
+static float musgrave_hybrid_multi_fractal3(noise_mode m, npoint p, float H,
+                                            float lacunarity, float octaves, float offset,
+                                            float gain)
+{
+    float pwHL = powf(lacunarity, -H), pwr = 1.0f, value = 0.0f, weight = 1.0f;
+    int n = (int)octaves;
+    for (int i = 0; weight > 0.001f && i < n; i++) {
+        if (weight > 1.0f)
+            weight = 1.0f;
+        float signal = snoise_plus(m, p, offset) * pwr;
+        pwr *= pwHL;
+        value = madd(weight, signal, value);
+        weight *= gain * signal;
+        p = np_scale(p, lacunarity);
+    }
+    float rmd = octaves - floorf(octaves);
+    if (rmd != 0.0f && weight > 0.001f) {
+        if (weight > 1.0f)
+            weight = 1.0f;
+        float signal = snoise_plus(m, p, offset) * pwr;
+        value = madd(rmd * weight, signal, value);
+    }
+    return value;
+}
+
+static float musgrave_ridged_multi_fractal3(noise_mode m, npoint p, float H,
+                                            float lacunarity, float octaves, float offset,
+                                            float gain)
+{
+    float pwHL = powf(lacunarity, -H), pwr = pwHL;
+    float signal = offset - fabsf(snoise(m, p));
+    signal *= signal;
+    float value = signal, weight = 1.0f;
+    int n = (int)octaves;
+    for (int i = 1; i < n; i++) {
+        p = np_scale(p, lacunarity);
+        weight = clampf(signal * gain, 0.0f, 1.0f);
+        signal = offset - fabsf(snoise(m, p));
+        signal *= signal;
+        signal *= weight;
+        value = madd(signal, pwr, value);
+        pwr *= pwHL;
+    }
+    return value;
+}
+
+/* The Musgrave Dimension that blender/compat_noise.py writes for a 4.x Roughness and
+ * Lacunarity: the H with Lacunarity^-H = Roughness, computed in double and stored as a
+ * float, with the same special cases (keep the two in step). */
+static float musgrave_dimension(float roughness, float lacunarity)
+{
+    if (roughness <= 0.0f)
+        return 1e30f; /* Lacunarity^-1e30 is 0 for any lacunarity > 1 */
+    if (lacunarity == 1.0f || roughness == 1.0f)
+        return 0.0f; /* clamped to 1e-5 by the node: pwHL is (almost) 1 */
+    return (float)(-log((double)roughness) / log((double)lacunarity));
+}
+
+/* ---- Noise Texture --------------------------------------------------------------- */
+
+enum {
+    IN_VECTOR, IN_W, IN_SCALE, IN_DETAIL, IN_ROUGHNESS, IN_LACUNARITY, IN_OFFSET, IN_GAIN,
+    IN_DISTORTION
+};
+enum { PROP_DIMENSIONS, PROP_TYPE, PROP_NORMALIZE };
+
+/* Cycles' random_float{,2,3,4}_offset: seeds that decorrelate distortion and colour. */
+static npoint random_offset(int dims, float seed)
+{
+    npoint r = {0.0f, 0.0f, 0.0f, 0.0f};
+    if (dims == DIMS_1D) {
+        r.x = 100.0f + hash_float_to_float(seed) * 100.0f;
+        return r;
+    }
+    /* Components of the axes the point has; the others stay 0. */
+    float c[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    for (int k = 0; k <= dims; k++)
+        c[k] = 100.0f + hash_float2_to_float(seed, (float)k) * 100.0f;
+    r.x = c[0];
+    r.y = c[1];
+    r.z = c[2];
+    r.w = c[3];
+    return r;
+}
+
+typedef struct noise_node {
+    noise_mode mode;
+    int type;
+    bool normalize;
+    /* Blender 3.x: which 3.4 node the translation builds. */
+    bool as_musgrave;
+    npoint distortion_seed[4]; /* per axis */
+    npoint color_seed[2];      /* green, blue */
+} noise_node;
+
+typedef struct noise_inputs {
+    float detail, roughness, lacunarity, offset, gain, distortion;
+} noise_inputs;
+
+/* One fractal evaluation of the node's type at an already scaled and distorted point. */
+static float noise_select(const noise_node *nn, npoint p, const noise_inputs *in)
+{
+    noise_mode m = nn->mode;
+    if (!m.blender3) {
+        switch (nn->type) {
+        case TYPE_MULTIFRACTAL:
+            return multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity);
+        case TYPE_RIDGED:
+            return ridged_multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity,
+                                         in->offset, in->gain);
+        case TYPE_HYBRID:
+            return hybrid_multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity,
+                                         in->offset, in->gain);
+        case TYPE_HETERO:
+            return hetero_terrain4(m, p, in->detail, in->roughness, in->lacunarity,
+                                   in->offset);
+        default:
+            return fbm4(m, p, in->detail, in->roughness, in->lacunarity, nn->normalize);
+        }
+    }
+    if (!nn->as_musgrave)
+        return fractal_noise3(m, p, in->detail, in->roughness);
+
+    /* The translated Musgrave node's inputs, then 3.4's own clamps. */
+    float octaves = clampf(clampf(in->detail, 0.0f, 15.0f) + 1.0f, 0.0f, 15.0f);
+    float H = fmaxf(musgrave_dimension(in->roughness, in->lacunarity), 1e-5f);
+    float lacunarity = fmaxf(in->lacunarity, 1e-5f);
+    switch (nn->type) {
+    case TYPE_MULTIFRACTAL: return musgrave_multi_fractal3(m, p, H, lacunarity, octaves);
+    case TYPE_RIDGED:
+        return musgrave_ridged_multi_fractal3(m, p, H, lacunarity, octaves, in->offset,
+                                              in->gain);
+    case TYPE_HYBRID:
+        return musgrave_hybrid_multi_fractal3(m, p, H, lacunarity, octaves, in->offset,
+                                              in->gain);
+    case TYPE_HETERO:
+        return musgrave_hetero_terrain3(m, p, H, lacunarity, octaves, in->offset);
+    default: return musgrave_fbm3(m, p, H, lacunarity, octaves);
+    }
+}
+
+static void noise_point(const noise_node *nn, npoint p, const noise_inputs *in, float *fac,
+                        float3 *color)
+{
+    int dims = nn->mode.dims;
+    /* 3.4's Musgrave has no Distortion. */
+    if (in->distortion != 0.0f && !nn->as_musgrave) {
+        float d[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+        for (int k = 0; k <= dims; k++)
+            d[k] = snoise(nn->mode, np_add(p, nn->distortion_seed[k])) * in->distortion;
+        npoint offset = {d[0], d[1], d[2], d[3]};
+        p = np_add(p, offset);
+    }
+    *fac = noise_select(nn, p, in);
+    if (color) {
+        if (nn->as_musgrave) {
+            *color = make_float3(*fac, *fac, *fac);
+            return;
+        }
+        *color = make_float3(*fac, noise_select(nn, np_add(p, nn->color_seed[0]), in),
+                             noise_select(nn, np_add(p, nn->color_seed[1]), in));
+    }
+}
+
+static void tex_noise_kernel(const sg_kernel_args *a)
+{
+    noise_node nn;
+    nn.mode.dims = a->prop[PROP_DIMENSIONS];
+    nn.mode.blender3 = a->blender == SG_BLENDER_3;
+    nn.type = a->prop[PROP_TYPE];
+    nn.normalize = a->prop[PROP_NORMALIZE] != 0;
+    nn.as_musgrave = nn.mode.blender3 && !(nn.type == TYPE_FBM && nn.normalize);
+
+    int dims = nn.mode.dims;
+    /* 1D has a single distortion axis and its colour seeds follow it. */
+    int n_axes = dims + 1;
+    for (int k = 0; k < 4; k++)
+        nn.distortion_seed[k] = random_offset(dims, (float)k);
+    nn.color_seed[0] = random_offset(dims, (float)n_axes);
+    nn.color_seed[1] = random_offset(dims, (float)(n_axes + 1));
+
+    const float *vec = a->in[IN_VECTOR], *w = a->in[IN_W], *scale = a->in[IN_SCALE];
+    float *fac_out = a->out[0], *color_out = a->out[1];
+    int n = a->n;
+    for (int i = 0; i < n; i++) {
+        noise_inputs in;
+        in.detail = a->in[IN_DETAIL][i];
+        in.roughness = a->in[IN_ROUGHNESS][i];
+        in.lacunarity = a->in[IN_LACUNARITY][i];
+        in.offset = a->in[IN_OFFSET][i];
+        in.gain = a->in[IN_GAIN][i];
+        in.distortion = a->in[IN_DISTORTION][i];
+        if (!nn.mode.blender3) {
+            in.detail = clampf(in.detail, 0.0f, 15.0f);
+            in.roughness = fmaxf(in.roughness, 0.0f);
+        }
+
+        /* Only the sockets the dimensions make available are read. */
+        float s = scale[i];
+        npoint p = {0.0f, 0.0f, 0.0f, 0.0f};
+        if (dims == DIMS_1D) {
+            p.x = w[i] * s;
+        } else {
+            float3 v = f3_load(vec, n, i);
+            p.x = v.x * s;
+            p.y = v.y * s;
+            if (dims >= DIMS_3D)
+                p.z = v.z * s;
+            if (dims == DIMS_4D)
+                p.w = w[i] * s;
+        }
+
+        float fac;
+        float3 color;
+        noise_point(&nn, p, &in, &fac, color_out ? &color : NULL);
+        if (fac_out)
+            fac_out[i] = fac;
+        if (color_out)
+            f3_store(color_out, n, i, color);
+    }
+}
+
+#define DIMS_BIT(d) (1u << (d))
+#define TYPE_BIT(t) (1u << (t))
+
+static const sg_socket_def tex_noise_inputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f, 0.0f}, SG_IMPLICIT_GENERATED,
+     DIMS_BIT(DIMS_2D) | DIMS_BIT(DIMS_3D) | DIMS_BIT(DIMS_4D), PROP_DIMENSIONS, 0, 0},
+    {"W", "W", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DIMS_BIT(DIMS_1D) | DIMS_BIT(DIMS_4D),
+     PROP_DIMENSIONS, 0, 0},
+    {"Scale", "Scale", SG_SOCKET_FLOAT, {5.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Detail", "Detail", SG_SOCKET_FLOAT, {2.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Roughness", "Roughness", SG_SOCKET_FLOAT, {0.5f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Lacunarity", "Lacunarity", SG_SOCKET_FLOAT, {2.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Offset", "Offset", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE,
+     TYPE_BIT(TYPE_RIDGED) | TYPE_BIT(TYPE_HYBRID) | TYPE_BIT(TYPE_HETERO), PROP_TYPE, 0, 0},
+    {"Gain", "Gain", SG_SOCKET_FLOAT, {1.0f}, SG_IMPLICIT_NONE,
+     TYPE_BIT(TYPE_RIDGED) | TYPE_BIT(TYPE_HYBRID), PROP_TYPE, 0, 0},
+    {"Distortion", "Distortion", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+static const sg_socket_def tex_noise_outputs[] = {
+    {"Fac", "Fac", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Color", "Color", SG_SOCKET_COLOR, {0.0f, 0.0f, 0.0f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+static const sg_prop_def tex_noise_props[] = {
+    {"noise_dimensions", SG_PROP_ENUM, noise_dimensions_values, DIMS_3D},
+    {"noise_type", SG_PROP_ENUM, noise_type_values, TYPE_FBM},
+    {"normalize", SG_PROP_BOOL, NULL, 1},
+};
+
+const sg_node_type node_type_tex_noise = {
+    "ShaderNodeTexNoise",
+    tex_noise_inputs,
+    (int)(sizeof tex_noise_inputs / sizeof tex_noise_inputs[0]),
+    tex_noise_outputs,
+    (int)(sizeof tex_noise_outputs / sizeof tex_noise_outputs[0]),
+    tex_noise_props,
+    (int)(sizeof tex_noise_props / sizeof tex_noise_props[0]),
+    tex_noise_kernel,
+    0,
+};
+
+/* ---- White Noise Texture --------------------------------------------------------- */
+
+enum { WN_IN_VECTOR, WN_IN_W };
+
+static float3 hash_float_to_float3(float k)
+{
+    return make_float3(hash_float_to_float(k), hash_float2_to_float(k, 1.0f),
+                       hash_float2_to_float(k, 2.0f));
+}
+
+static float3 hash_float2_to_float3(float x, float y)
+{
+    return make_float3(hash_float2_to_float(x, y), hash_float3_to_float(make_float3(x, y, 1.0f)),
+                       hash_float3_to_float(make_float3(x, y, 2.0f)));
+}
+
+static float3 hash_float4_to_float3(float x, float y, float z, float w)
+{
+    return make_float3(hash_float4_to_float(x, y, z, w), hash_float4_to_float(z, x, w, y),
+                       hash_float4_to_float(w, z, y, x));
+}
+
+static void tex_white_noise_kernel(const sg_kernel_args *a)
+{
+    int dims = a->prop[0];
+    const float *vec = a->in[WN_IN_VECTOR], *w = a->in[WN_IN_W];
+    float *value_out = a->out[0], *color_out = a->out[1];
+    int n = a->n;
+    for (int i = 0; i < n; i++) {
+        float3 v = dims == DIMS_1D ? make_float3(0.0f, 0.0f, 0.0f) : f3_load(vec, n, i);
+        float value;
+        float3 color;
+        switch (dims) {
+        case DIMS_1D:
+            value = hash_float_to_float(w[i]);
+            color = hash_float_to_float3(w[i]);
+            break;
+        case DIMS_2D:
+            value = hash_float2_to_float(v.x, v.y);
+            color = hash_float2_to_float3(v.x, v.y);
+            break;
+        case DIMS_3D:
+            value = hash_float3_to_float(v);
+            color = hash_float3_to_float3(v);
+            break;
+        default:
+            value = hash_float4_to_float(v.x, v.y, v.z, w[i]);
+            color = hash_float4_to_float3(v.x, v.y, v.z, w[i]);
+            break;
+        }
+        if (value_out)
+            value_out[i] = value;
+        if (color_out)
+            f3_store(color_out, n, i, color);
+    }
+}
+
+static const sg_socket_def tex_white_noise_inputs[] = {
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f, 0.0f}, SG_IMPLICIT_GENERATED,
+     DIMS_BIT(DIMS_2D) | DIMS_BIT(DIMS_3D) | DIMS_BIT(DIMS_4D), 0, 0, 0},
+    {"W", "W", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DIMS_BIT(DIMS_1D) | DIMS_BIT(DIMS_4D),
+     0, 0, 0},
+};
+
+static const sg_socket_def tex_white_noise_outputs[] = {
+    {"Value", "Value", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+    {"Color", "Color", SG_SOCKET_COLOR, {0.0f, 0.0f, 0.0f, 1.0f}, SG_IMPLICIT_NONE, 0, 0, 0, 0},
+};
+
+static const sg_prop_def tex_white_noise_props[] = {
+    {"noise_dimensions", SG_PROP_ENUM, noise_dimensions_values, DIMS_3D},
+};
+
+const sg_node_type node_type_tex_white_noise = {
+    "ShaderNodeTexWhiteNoise",
+    tex_white_noise_inputs,
+    (int)(sizeof tex_white_noise_inputs / sizeof tex_white_noise_inputs[0]),
+    tex_white_noise_outputs,
+    (int)(sizeof tex_white_noise_outputs / sizeof tex_white_noise_outputs[0]),
+    tex_white_noise_props,
+    (int)(sizeof tex_white_noise_props / sizeof tex_white_noise_props[0]),
+    tex_white_noise_kernel,
+    0,
+};
