@@ -27,6 +27,7 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
@@ -82,7 +83,25 @@ static inline float fade_simd(float t)
     return (t * t) * (t * b);
 }
 
-static inline float negate_if(float v, uint32_t condition) { return condition ? -v : v; }
+/* The gradient functions pick and negate by hash bits, which are random: written as
+ * bit operations (as Cycles' SIMD code does) rather than branches the CPU would mispredict
+ * half the time. Flipping the sign bit is exactly negation. */
+static inline float negate_if(float v, uint32_t condition)
+{
+    uint32_t u = float_bits(v) ^ ((uint32_t)(condition != 0u) << 31);
+    float r;
+    memcpy(&r, &u, sizeof r);
+    return r;
+}
+
+static inline float select_if(uint32_t condition, float a, float b)
+{
+    uint32_t mask = 0u - (uint32_t)(condition != 0u);
+    uint32_t u = (float_bits(a) & mask) | (float_bits(b) & ~mask);
+    float r;
+    memcpy(&r, &u, sizeof r);
+    return r;
+}
 
 static inline float grad1(uint32_t hash, float x)
 {
@@ -94,30 +113,38 @@ static inline float grad1(uint32_t hash, float x)
 static inline float grad2(uint32_t hash, float x, float y)
 {
     uint32_t h = hash & 7u;
-    float u = h < 4u ? x : y;
-    float v = 2.0f * (h < 4u ? y : x);
+    float u = select_if(h < 4u, x, y);
+    float v = 2.0f * select_if(h < 4u, y, x);
     return negate_if(u, h & 1u) + negate_if(v, h & 2u);
 }
 
 static inline float grad3(uint32_t hash, float x, float y, float z)
 {
     uint32_t h = hash & 15u;
-    float u = h < 8u ? x : y;
-    float vt = (h == 12u || h == 14u) ? x : z;
-    float v = h < 4u ? y : vt;
+    float u = select_if(h < 8u, x, y);
+    float vt = select_if(h == 12u || h == 14u, x, z);
+    float v = select_if(h < 4u, y, vt);
     return negate_if(u, h & 1u) + negate_if(v, h & 2u);
 }
 
 static inline float grad4(uint32_t hash, float x, float y, float z, float w)
 {
     uint32_t h = hash & 31u;
-    float u = h < 24u ? x : y;
-    float v = h < 16u ? y : z;
-    float s = h < 8u ? z : w;
+    float u = select_if(h < 24u, x, y);
+    float v = select_if(h < 16u, y, z);
+    float s = select_if(h < 8u, z, w);
     return negate_if(u, h & 1u) + negate_if(v, h & 2u) + negate_if(s, h & 4u);
 }
 
-static float perlin_1d(float x)
+/* Always inlined into the per-version wrappers below, so that `b3` is a
+ * constant in each. */
+#if defined(__GNUC__)
+#define NOISE_INLINE static inline __attribute__((always_inline))
+#else
+#define NOISE_INLINE static inline
+#endif
+
+NOISE_INLINE float perlin_1d(float x)
 {
     int32_t ix;
     float fx = floor_frac(x, &ix);
@@ -130,7 +157,7 @@ static float perlin_1d(float x)
     return madd(g0, fx, u * madd(-g0, fx, b));
 }
 
-static float perlin_2d(float x, float y, bool b3)
+NOISE_INLINE float perlin_2d(float x, float y, bool b3)
 {
     int32_t ix, iy;
     float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy);
@@ -150,7 +177,7 @@ static float perlin_2d(float x, float y, bool b3)
     grad3(hash_uint3(X + (dx), Y + (dy), Z + (dz)), (dx) ? fx1 : fx, (dy) ? fy1 : fy,     \
           (dz) ? fz1 : fz)
 
-static float perlin_3d(float x, float y, float z, bool b3)
+NOISE_INLINE float perlin_3d(float x, float y, float z, bool b3)
 {
     int32_t ix, iy, iz;
     float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy), fz = floor_frac(z, &iz);
@@ -174,7 +201,7 @@ static float perlin_3d(float x, float y, float z, bool b3)
 /* The w-interpolated value at corner (dx, dy, dz). */
 #define WMIX(dx, dy, dz) simd_mix(CORNER4(dx, dy, dz, 0u), CORNER4(dx, dy, dz, 1u), t, b3)
 
-static float perlin_4d(float x, float y, float z, float w, bool b3)
+NOISE_INLINE float perlin_4d(float x, float y, float z, float w, bool b3)
 {
     int32_t ix, iy, iz, iw;
     float fx = floor_frac(x, &ix), fy = floor_frac(y, &iy), fz = floor_frac(z, &iz),
@@ -211,12 +238,6 @@ static inline npoint np_add(npoint a, npoint b)
     return r;
 }
 
-/* How a noise evaluation is done: dimensions and Blender version. Constant per node. */
-typedef struct noise_mode {
-    int dims;
-    bool blender3;
-} noise_mode;
-
 /* Blender 4.x repeats noise every 100000 on each axis to keep float precision, and
  * shifts coordinates at or beyond 1e6 by half a cell (Cycles: "precision correction"). */
 static inline float wrap_coordinate(float p)
@@ -228,47 +249,61 @@ static inline float wrap_coordinate(float p)
 /* Blender 3.x replaces a non-finite Perlin value (from non-finite coordinates) by 0. */
 static inline float finite_or_zero(float v) { return isfinite(v) ? v : 0.0f; }
 
-/* Unscaled Perlin noise of the point, per version; snoise = scale * perlin. */
-static float perlin(noise_mode m, npoint p)
+/* Unscaled Perlin noise of a point, one function per dimensions and Blender version so
+ * that the version's choices are constants inside each. */
+static float perlin_1d_v4(npoint p) { return perlin_1d(wrap_coordinate(p.x)); }
+static float perlin_2d_v4(npoint p)
 {
-    if (m.blender3) {
-        switch (m.dims) {
-        case DIMS_1D: return finite_or_zero(perlin_1d(p.x));
-        case DIMS_2D: return finite_or_zero(perlin_2d(p.x, p.y, true));
-        case DIMS_3D: return finite_or_zero(perlin_3d(p.x, p.y, p.z, true));
-        default: return finite_or_zero(perlin_4d(p.x, p.y, p.z, p.w, true));
-        }
-    }
-    switch (m.dims) {
-    case DIMS_1D: return perlin_1d(wrap_coordinate(p.x));
-    case DIMS_2D: return perlin_2d(wrap_coordinate(p.x), wrap_coordinate(p.y), false);
-    case DIMS_3D:
-        return perlin_3d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z),
-                         false);
-    default:
-        return perlin_4d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z),
-                         wrap_coordinate(p.w), false);
-    }
+    return perlin_2d(wrap_coordinate(p.x), wrap_coordinate(p.y), false);
+}
+static float perlin_3d_v4(npoint p)
+{
+    return perlin_3d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z), false);
+}
+static float perlin_4d_v4(npoint p)
+{
+    return perlin_4d(wrap_coordinate(p.x), wrap_coordinate(p.y), wrap_coordinate(p.z),
+                     wrap_coordinate(p.w), false);
+}
+static float perlin_1d_v3(npoint p) { return finite_or_zero(perlin_1d(p.x)); }
+static float perlin_2d_v3(npoint p) { return finite_or_zero(perlin_2d(p.x, p.y, true)); }
+static float perlin_3d_v3(npoint p) { return finite_or_zero(perlin_3d(p.x, p.y, p.z, true)); }
+static float perlin_4d_v3(npoint p)
+{
+    return finite_or_zero(perlin_4d(p.x, p.y, p.z, p.w, true));
 }
 
-/* Cycles' noise_scale1..4: maps Perlin noise to about [-1, 1]. */
-static inline float noise_scale(int dims)
+/* How a noise evaluation is done: dimensions and Blender version. Constant per node. */
+typedef struct noise_mode {
+    int dims;
+    bool blender3;
+    float (*perlin)(npoint p);
+    float scale; /* Cycles' noise_scale1..4: maps Perlin noise to about [-1, 1] */
+} noise_mode;
+
+static noise_mode noise_mode_for(int dims, bool blender3)
 {
+    static float (*const perlin_v4[4])(npoint) = {perlin_1d_v4, perlin_2d_v4, perlin_3d_v4,
+                                                  perlin_4d_v4};
+    static float (*const perlin_v3[4])(npoint) = {perlin_1d_v3, perlin_2d_v3, perlin_3d_v3,
+                                                  perlin_4d_v3};
     static const float scales[4] = {0.2500f, 0.6616f, 0.9820f, 0.8344f};
-    return scales[dims];
+    noise_mode m = {dims, blender3, blender3 ? perlin_v3[dims] : perlin_v4[dims],
+                    scales[dims]};
+    return m;
 }
 
-static inline float snoise(noise_mode m, npoint p) { return noise_scale(m.dims) * perlin(m, p); }
+static inline float snoise(const noise_mode *m, npoint p) { return m->scale * m->perlin(p); }
 
 /* snoise(p) + offset: the scaling product fuses into the sum. */
-static inline float snoise_plus(noise_mode m, npoint p, float offset)
+static inline float snoise_plus(const noise_mode *m, npoint p, float offset)
 {
-    return madd(noise_scale(m.dims), perlin(m, p), offset);
+    return madd(m->scale, m->perlin(p), offset);
 }
 
 /* ---- Blender 4.x fractals (fractal_noise.h) -------------------------------------- */
 
-static float fbm4(noise_mode m, npoint p, float detail, float roughness, float lacunarity,
+static float fbm4(const noise_mode *m, npoint p, float detail, float roughness, float lacunarity,
                   bool normalize)
 {
     float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
@@ -291,7 +326,7 @@ static float fbm4(noise_mode m, npoint p, float detail, float roughness, float l
     return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
 }
 
-static float multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+static float multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
                             float lacunarity)
 {
     float value = 1.0f, pwr = 1.0f;
@@ -307,7 +342,7 @@ static float multi_fractal4(noise_mode m, npoint p, float detail, float roughnes
     return value;
 }
 
-static float hetero_terrain4(noise_mode m, npoint p, float detail, float roughness,
+static float hetero_terrain4(const noise_mode *m, npoint p, float detail, float roughness,
                              float lacunarity, float offset)
 {
     float pwr = roughness;
@@ -329,7 +364,7 @@ static float hetero_terrain4(noise_mode m, npoint p, float detail, float roughne
     return value;
 }
 
-static float hybrid_multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+static float hybrid_multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
                                    float lacunarity, float offset, float gain)
 {
     float pwr = 1.0f, value = 0.0f, weight = 1.0f;
@@ -353,7 +388,7 @@ static float hybrid_multi_fractal4(noise_mode m, npoint p, float detail, float r
     return value;
 }
 
-static float ridged_multi_fractal4(noise_mode m, npoint p, float detail, float roughness,
+static float ridged_multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
                                    float lacunarity, float offset, float gain)
 {
     float pwr = roughness;
@@ -375,7 +410,7 @@ static float ridged_multi_fractal4(noise_mode m, npoint p, float detail, float r
 
 /* ---- Blender 3.4's Noise Texture fBM (fractal_noise.h of 3.4) --------------------- */
 
-static float fractal_noise3(noise_mode m, npoint p, float octaves, float roughness)
+static float fractal_noise3(const noise_mode *m, npoint p, float octaves, float roughness)
 {
     float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
     octaves = clampf(octaves, 0.0f, 15.0f);
@@ -401,7 +436,7 @@ static float fractal_noise3(noise_mode m, npoint p, float octaves, float roughne
 
 /* ---- Blender 3.4's Musgrave Texture (musgrave.h of 3.4) -------------------------- */
 
-static float musgrave_fbm3(noise_mode m, npoint p, float H, float lacunarity, float octaves)
+static float musgrave_fbm3(const noise_mode *m, npoint p, float H, float lacunarity, float octaves)
 {
     float value = 0.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
     int n = (int)octaves;
@@ -416,7 +451,7 @@ static float musgrave_fbm3(noise_mode m, npoint p, float H, float lacunarity, fl
     return value;
 }
 
-static float musgrave_multi_fractal3(noise_mode m, npoint p, float H, float lacunarity,
+static float musgrave_multi_fractal3(const noise_mode *m, npoint p, float H, float lacunarity,
                                      float octaves)
 {
     float value = 1.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
@@ -432,7 +467,7 @@ static float musgrave_multi_fractal3(noise_mode m, npoint p, float H, float lacu
     return value;
 }
 
-static float musgrave_hetero_terrain3(noise_mode m, npoint p, float H, float lacunarity,
+static float musgrave_hetero_terrain3(const noise_mode *m, npoint p, float H, float lacunarity,
                                       float octaves, float offset)
 {
     float pwHL = powf(lacunarity, -H), pwr = pwHL;
@@ -453,7 +488,7 @@ static float musgrave_hetero_terrain3(noise_mode m, npoint p, float H, float lac
     return value;
 }
 
-static float musgrave_hybrid_multi_fractal3(noise_mode m, npoint p, float H,
+static float musgrave_hybrid_multi_fractal3(const noise_mode *m, npoint p, float H,
                                             float lacunarity, float octaves, float offset,
                                             float gain)
 {
@@ -478,7 +513,7 @@ static float musgrave_hybrid_multi_fractal3(noise_mode m, npoint p, float H,
     return value;
 }
 
-static float musgrave_ridged_multi_fractal3(noise_mode m, npoint p, float H,
+static float musgrave_ridged_multi_fractal3(const noise_mode *m, npoint p, float H,
                                             float lacunarity, float octaves, float offset,
                                             float gain)
 {
@@ -555,8 +590,8 @@ typedef struct noise_inputs {
 /* One fractal evaluation of the node's type at an already scaled and distorted point. */
 static float noise_select(const noise_node *nn, npoint p, const noise_inputs *in)
 {
-    noise_mode m = nn->mode;
-    if (!m.blender3) {
+    const noise_mode *m = &nn->mode;
+    if (!m->blender3) {
         switch (nn->type) {
         case TYPE_MULTIFRACTAL:
             return multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity);
@@ -602,7 +637,7 @@ static void noise_point(const noise_node *nn, npoint p, const noise_inputs *in, 
     if (in->distortion != 0.0f && !nn->as_musgrave) {
         float d[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         for (int k = 0; k <= dims; k++)
-            d[k] = snoise(nn->mode, np_add(p, nn->distortion_seed[k])) * in->distortion;
+            d[k] = snoise(&nn->mode, np_add(p, nn->distortion_seed[k])) * in->distortion;
         npoint offset = {d[0], d[1], d[2], d[3]};
         p = np_add(p, offset);
     }
@@ -620,13 +655,12 @@ static void noise_point(const noise_node *nn, npoint p, const noise_inputs *in, 
 static void tex_noise_kernel(const sg_kernel_args *a)
 {
     noise_node nn;
-    nn.mode.dims = a->prop[PROP_DIMENSIONS];
-    nn.mode.blender3 = a->blender == SG_BLENDER_3;
+    int dims = a->prop[PROP_DIMENSIONS];
+    nn.mode = noise_mode_for(dims, a->blender == SG_BLENDER_3);
     nn.type = a->prop[PROP_TYPE];
     nn.normalize = a->prop[PROP_NORMALIZE] != 0;
     nn.as_musgrave = nn.mode.blender3 && !(nn.type == TYPE_FBM && nn.normalize);
 
-    int dims = nn.mode.dims;
     /* 1D has a single distortion axis and its colour seeds follow it. */
     int n_axes = dims + 1;
     for (int k = 0; k < 4; k++)
@@ -774,8 +808,10 @@ static void tex_white_noise_kernel(const sg_kernel_args *a)
     }
 }
 
+/* Unlike the other textures, an unlinked Vector is (0, 0, 0) here, not Generated
+ * coordinates (checked in Blender 3.4 and 4.3). */
 static const sg_socket_def tex_white_noise_inputs[] = {
-    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f, 0.0f}, SG_IMPLICIT_GENERATED,
+    {"Vector", "Vector", SG_SOCKET_VECTOR, {0.0f, 0.0f, 0.0f, 0.0f}, SG_IMPLICIT_NONE,
      DIMS_BIT(DIMS_2D) | DIMS_BIT(DIMS_3D) | DIMS_BIT(DIMS_4D), 0, 0, 0},
     {"W", "W", SG_SOCKET_FLOAT, {0.0f}, SG_IMPLICIT_NONE, DIMS_BIT(DIMS_1D) | DIMS_BIT(DIMS_4D),
      0, 0, 0},
