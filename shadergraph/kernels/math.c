@@ -167,8 +167,8 @@ static inline float3 refract3(float3 incident, float3 normal, float eta)
     if (k < 0.0f)
         return make_float3(0.0f, 0.0f, 0.0f);
     float s = madd(eta, d, sqrtf(k));
-    return make_float3(madd(eta, incident.x, -(s * normal.x)), madd(eta, incident.y, -(s * normal.y)),
-                       madd(eta, incident.z, -(s * normal.z)));
+    return make_float3(nmadd(s, normal.x, eta * incident.x), nmadd(s, normal.y, eta * incident.y),
+                       nmadd(s, normal.z, eta * incident.z));
 }
 
 static inline float3 project3(float3 v, float3 onto)
@@ -372,77 +372,88 @@ static inline float3 map3(float3 a, float (*f)(float))
     return make_float3(f(a.x), f(a.y), f(a.z));
 }
 
-/* One point of Vector Math. Operations that produce only a vector set *value to 0 and
- * vice versa (Cycles leaves the other output unset; Blender hides it). */
-static inline void vector_math(int op, bool blender3, float3 a, float3 b, float3 c, float scale,
-                               float3 *vector, float *value)
+static inline float3 reflect_versioned(float3 a, float3 b, bool blender3)
 {
-    const float3 zero = make_float3(0.0f, 0.0f, 0.0f);
-    *vector = zero;
-    *value = 0.0f;
-    switch (op) {
-    case V_ADD: *vector = f3_add(a, b); break;
-    case V_SUBTRACT: *vector = f3_sub(a, b); break;
-    case V_MULTIPLY: *vector = f3_mul(a, b); break;
-    case V_DIVIDE:
-        *vector = make_float3(safe_divide(a.x, b.x), safe_divide(a.y, b.y), safe_divide(a.z, b.z));
-        break;
-    case V_MULTIPLY_ADD:
-        *vector = make_float3(madd(a.x, b.x, c.x), madd(a.y, b.y, c.y), madd(a.z, b.z, c.z));
-        break;
-    case V_CROSS_PRODUCT: *vector = cross3(a, b); break;
-    case V_PROJECT: *vector = project3(a, b); break;
-    case V_REFLECT: *vector = reflect3(a, blender3 ? normalize3_div(b) : safe_normalize3(b)); break;
-    case V_REFRACT:
-        *vector = refract3(a, blender3 ? normalize3_div(b) : safe_normalize3(b), scale);
-        break;
-    case V_FACEFORWARD: *vector = dot3(c, b) < 0.0f ? a : f3_scale(a, -1.0f); break;
-    case V_DOT_PRODUCT: *value = dot3(a, b); break;
-    case V_DISTANCE: *value = len3(f3_sub(a, b)); break;
-    case V_LENGTH: *value = len3(a); break;
-    case V_SCALE: *vector = f3_scale(a, scale); break;
-    case V_NORMALIZE: *vector = safe_normalize3(a); break;
-    case V_ABSOLUTE: *vector = map3(a, fabsf); break;
-    case V_MINIMUM: *vector = make_float3(cy_min(a.x, b.x), cy_min(a.y, b.y), cy_min(a.z, b.z)); break;
-    case V_MAXIMUM: *vector = make_float3(cy_max(a.x, b.x), cy_max(a.y, b.y), cy_max(a.z, b.z)); break;
-    case V_FLOOR: *vector = map3(a, floorf); break;
-    case V_CEIL: *vector = map3(a, ceilf); break;
-    case V_FRACTION: *vector = map3(a, fractf); break;
-    case V_MODULO:
-        *vector = make_float3(safe_modulo(a.x, b.x), safe_modulo(a.y, b.y), safe_modulo(a.z, b.z));
-        break;
-    case V_WRAP:
-        *vector = make_float3(wrapf(a.x, b.x, c.x), wrapf(a.y, b.y, c.y), wrapf(a.z, b.z, c.z));
-        break;
-    case V_SNAP:
-        *vector = make_float3(floorf(safe_divide(a.x, b.x)) * b.x, floorf(safe_divide(a.y, b.y)) * b.y,
-                              floorf(safe_divide(a.z, b.z)) * b.z);
-        break;
-    case V_SINE: *vector = map3(a, sinf); break;
-    case V_COSINE: *vector = map3(a, cosf); break;
-    case V_TANGENT: *vector = map3(a, tanf); break;
-    default: break;
-    }
+    return reflect3(a, blender3 ? normalize3_div(b) : safe_normalize3(b));
 }
+
+static inline float3 refract_versioned(float3 a, float3 b, float eta, bool blender3)
+{
+    return refract3(a, blender3 ? normalize3_div(b) : safe_normalize3(b), eta);
+}
+
+/* One loop per operation, like MATH_LOOP: a_, b_, c_ are the three vectors, s_ the
+ * Scale input; the statement sets v_ (Vector output) or value_ (Value output). The
+ * output an operation does not produce is written as 0 (Cycles leaves it unset; Blender
+ * hides it). */
+#define VECTOR_LOOP(stmt)                                                                  \
+    for (int i = 0; i < n; i++) {                                                          \
+        const float3 a_ = f3_load(in_a, n, i), b_ = f3_load(in_b, n, i),                   \
+                     c_ = f3_load(in_c, n, i);                                             \
+        const float s_ = in_scale[i];                                                      \
+        float3 v_ = make_float3(0.0f, 0.0f, 0.0f);                                         \
+        float value_ = 0.0f;                                                               \
+        (void)b_;                                                                          \
+        (void)c_;                                                                          \
+        (void)s_;                                                                          \
+        stmt;                                                                              \
+        if (out_vector)                                                                    \
+            f3_store(out_vector, n, i, v_);                                                \
+        if (out_value)                                                                     \
+            out_value[i] = value_;                                                         \
+    }                                                                                      \
+    break
+
+#define COMPONENTWISE2(f) make_float3(f(a_.x, b_.x), f(a_.y, b_.y), f(a_.z, b_.z))
 
 static void vector_math_kernel(const sg_kernel_args *a)
 {
     const int n = a->n;
-    const int op = a->prop[VMATH_PROP_OPERATION];
     const bool blender3 = a->blender == SG_BLENDER_3;
+    const float *in_a = a->in[0], *in_b = a->in[1], *in_c = a->in[2], *in_scale = a->in[3];
     float *out_vector = a->out[0], *out_value = a->out[1];
 
-    for (int i = 0; i < n; i++) {
-        float3 v;
-        float s;
-        vector_math(op, blender3, f3_load(a->in[0], n, i), f3_load(a->in[1], n, i),
-                    f3_load(a->in[2], n, i), a->in[3][i], &v, &s);
-        if (out_vector)
-            f3_store(out_vector, n, i, v);
-        if (out_value)
-            out_value[i] = s;
+    switch (a->prop[VMATH_PROP_OPERATION]) {
+    case V_ADD: VECTOR_LOOP(v_ = f3_add(a_, b_));
+    case V_SUBTRACT: VECTOR_LOOP(v_ = f3_sub(a_, b_));
+    case V_MULTIPLY: VECTOR_LOOP(v_ = f3_mul(a_, b_));
+    case V_DIVIDE: VECTOR_LOOP(v_ = COMPONENTWISE2(safe_divide));
+    case V_MULTIPLY_ADD:
+        VECTOR_LOOP(v_ = make_float3(madd(a_.x, b_.x, c_.x), madd(a_.y, b_.y, c_.y),
+                                     madd(a_.z, b_.z, c_.z)));
+    case V_CROSS_PRODUCT: VECTOR_LOOP(v_ = cross3(a_, b_));
+    case V_PROJECT: VECTOR_LOOP(v_ = project3(a_, b_));
+    case V_REFLECT: VECTOR_LOOP(v_ = reflect_versioned(a_, b_, blender3));
+    case V_REFRACT: VECTOR_LOOP(v_ = refract_versioned(a_, b_, s_, blender3));
+    case V_FACEFORWARD: VECTOR_LOOP(v_ = dot3(c_, b_) < 0.0f ? a_ : f3_scale(a_, -1.0f));
+    case V_DOT_PRODUCT: VECTOR_LOOP(value_ = dot3(a_, b_));
+    case V_DISTANCE: VECTOR_LOOP(value_ = len3(f3_sub(a_, b_)));
+    case V_LENGTH: VECTOR_LOOP(value_ = len3(a_));
+    case V_SCALE: VECTOR_LOOP(v_ = f3_scale(a_, s_));
+    case V_NORMALIZE: VECTOR_LOOP(v_ = safe_normalize3(a_));
+    case V_ABSOLUTE: VECTOR_LOOP(v_ = map3(a_, fabsf));
+    case V_MINIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(cy_min));
+    case V_MAXIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(cy_max));
+    case V_FLOOR: VECTOR_LOOP(v_ = map3(a_, floorf));
+    case V_CEIL: VECTOR_LOOP(v_ = map3(a_, ceilf));
+    case V_FRACTION: VECTOR_LOOP(v_ = map3(a_, fractf));
+    case V_MODULO: VECTOR_LOOP(v_ = COMPONENTWISE2(safe_modulo));
+    case V_WRAP:
+        VECTOR_LOOP(v_ = make_float3(wrapf(a_.x, b_.x, c_.x), wrapf(a_.y, b_.y, c_.y),
+                                     wrapf(a_.z, b_.z, c_.z)));
+    case V_SNAP:
+        VECTOR_LOOP(v_ = make_float3(floorf(safe_divide(a_.x, b_.x)) * b_.x,
+                                     floorf(safe_divide(a_.y, b_.y)) * b_.y,
+                                     floorf(safe_divide(a_.z, b_.z)) * b_.z));
+    case V_SINE: VECTOR_LOOP(v_ = map3(a_, sinf));
+    case V_COSINE: VECTOR_LOOP(v_ = map3(a_, cosf));
+    case V_TANGENT: VECTOR_LOOP(v_ = map3(a_, tanf));
+    default: VECTOR_LOOP((void)a_);
     }
 }
+
+#undef VECTOR_LOOP
+#undef COMPONENTWISE2
 
 const sg_node_type node_type_vector_math = {
     "ShaderNodeVectorMath",
@@ -555,14 +566,18 @@ static const sg_prop_def map_range_props[] = {
     {"clamp", SG_PROP_BOOL, NULL, 1},
 };
 
-static inline float smoothstep_edges(float edge0, float edge1, float x)
+/* Cycles' smoothstep(edge0, edge1, x), and 1 - smoothstep(...) as the reversed-range
+ * branch of Map Range computes it: there the final product feeds the subtraction from 1
+ * and the AVX2 kernel fuses the two. */
+static inline float smoothstep_edges(float edge0, float edge1, float x, bool complement)
 {
     if (x < edge0)
-        return 0.0f;
+        return complement ? 1.0f : 0.0f;
     if (x >= edge1)
-        return 1.0f;
+        return complement ? 0.0f : 1.0f;
     float t = (x - edge0) / (edge1 - edge0);
-    return nmadd(2.0f, t, 3.0f) * (t * t);
+    float p = nmadd(2.0f, t, 3.0f);
+    return complement ? nmadd(p, t * t, 1.0f) : p * (t * t);
 }
 
 /* t^3 (t (6t - 15) + 10) for t already in [0, 1]. */
@@ -571,9 +586,12 @@ static inline float smootherstep_unit(float t)
     return t * t * t * madd(t, madd(t, 6.0f, -15.0f), 10.0f);
 }
 
-static inline float smootherstep_edges(float edge0, float edge1, float x)
+static inline float smootherstep_edges(float edge0, float edge1, float x, bool complement)
 {
-    return smootherstep_unit(cy_clamp(safe_divide(x - edge0, edge1 - edge0), 0.0f, 1.0f));
+    float t = cy_clamp(safe_divide(x - edge0, edge1 - edge0), 0.0f, 1.0f);
+    if (complement)
+        return nmadd(t * t * t, madd(t, madd(t, 6.0f, -15.0f), 10.0f), 1.0f);
+    return smootherstep_unit(t);
 }
 
 /* Float Map Range. Blender's clamp option is a Clamp node (RANGE on To Min/To Max)
@@ -590,12 +608,12 @@ static inline float map_range_float(int interpolation, bool clamp, float value, 
             factor = steps > 0.0f ? floorf(factor * (steps + 1.0f)) / steps : 0.0f;
             break;
         case MR_SMOOTHSTEP:
-            factor = from_min > from_max ? 1.0f - smoothstep_edges(from_max, from_min, value)
-                                         : smoothstep_edges(from_min, from_max, value);
+            factor = from_min > from_max ? smoothstep_edges(from_max, from_min, value, true)
+                                         : smoothstep_edges(from_min, from_max, value, false);
             break;
         case MR_SMOOTHERSTEP:
-            factor = from_min > from_max ? 1.0f - smootherstep_edges(from_max, from_min, value)
-                                         : smootherstep_edges(from_min, from_max, value);
+            factor = from_min > from_max ? smootherstep_edges(from_max, from_min, value, true)
+                                         : smootherstep_edges(from_min, from_max, value, false);
             break;
         default:
             factor = (value - from_min) / (from_max - from_min);
@@ -641,11 +659,20 @@ static void map_range_kernel(const sg_kernel_args *a)
         float *out = a->out[0];
         if (!out)
             return;
-        for (int i = 0; i < n; i++)
-            out[i] = map_range_float(interpolation, clamp, a->in[MR_IN_VALUE][i],
-                                     a->in[MR_IN_FROM_MIN][i], a->in[MR_IN_FROM_MAX][i],
-                                     a->in[MR_IN_TO_MIN][i], a->in[MR_IN_TO_MAX][i],
-                                     a->in[MR_IN_STEPS][i]);
+        /* The interpolation is a literal in each loop so that the inlined switch folds. */
+#define MAP_RANGE_FLOAT_LOOP(interp)                                                       \
+    for (int i = 0; i < n; i++)                                                            \
+        out[i] = map_range_float(interp, clamp, a->in[MR_IN_VALUE][i], a->in[MR_IN_FROM_MIN][i], \
+                                 a->in[MR_IN_FROM_MAX][i], a->in[MR_IN_TO_MIN][i],         \
+                                 a->in[MR_IN_TO_MAX][i], a->in[MR_IN_STEPS][i]);           \
+    break
+        switch (interpolation) {
+        case MR_STEPPED: MAP_RANGE_FLOAT_LOOP(MR_STEPPED);
+        case MR_SMOOTHSTEP: MAP_RANGE_FLOAT_LOOP(MR_SMOOTHSTEP);
+        case MR_SMOOTHERSTEP: MAP_RANGE_FLOAT_LOOP(MR_SMOOTHERSTEP);
+        default: MAP_RANGE_FLOAT_LOOP(MR_LINEAR);
+        }
+#undef MAP_RANGE_FLOAT_LOOP
         return;
     }
 
