@@ -1,0 +1,142 @@
+/*
+ * Small float3 helpers and Blender's hash functions, shared by the node kernels.
+ * Internal to shadergraph. Everything is static inline and pure.
+ *
+ * The hashes are Bob Jenkins' lookup3 final mix, seeded as Cycles seeds them, so that
+ * noise and Voronoi cells land exactly where Blender puts them. Float inputs are hashed
+ * by their bit patterns.
+ */
+#ifndef IMSYNTH_KERNEL_UTIL_H
+#define IMSYNTH_KERNEL_UTIL_H
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+typedef struct float3 {
+    float x, y, z;
+} float3;
+
+static inline float3 make_float3(float x, float y, float z)
+{
+    float3 r = {x, y, z};
+    return r;
+}
+static inline float3 f3_add(float3 a, float3 b) { return make_float3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline float3 f3_sub(float3 a, float3 b) { return make_float3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline float3 f3_mul(float3 a, float3 b) { return make_float3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline float3 f3_scale(float3 a, float s) { return make_float3(a.x * s, a.y * s, a.z * s); }
+static inline float f3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline float3 f3_cross(float3 a, float3 b)
+{
+    return make_float3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline float f3_length(float3 a) { return sqrtf(f3_dot(a, a)); }
+
+/* Read/write point i of a planar vector array of n points. */
+static inline float3 f3_load(const float *v, int n, int i)
+{
+    return make_float3(v[i], v[n + i], v[2 * n + i]);
+}
+static inline void f3_store(float *v, int n, int i, float3 a)
+{
+    v[i] = a.x;
+    v[n + i] = a.y;
+    v[2 * n + i] = a.z;
+}
+
+static inline uint32_t float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* ---- Jenkins lookup3 ------------------------------------------------------------- */
+
+static inline uint32_t hash_rot(uint32_t x, int k) { return (x << k) | (x >> (32 - k)); }
+
+#define HASH_MIX(a, b, c)                                                                  \
+    do {                                                                                   \
+        a -= c; a ^= hash_rot(c, 4);  c += b;                                               \
+        b -= a; b ^= hash_rot(a, 6);  a += c;                                               \
+        c -= b; c ^= hash_rot(b, 8);  b += a;                                               \
+        a -= c; a ^= hash_rot(c, 16); c += b;                                               \
+        b -= a; b ^= hash_rot(a, 19); a += c;                                               \
+        c -= b; c ^= hash_rot(b, 4);  b += a;                                               \
+    } while (0)
+
+#define HASH_FINAL(a, b, c)                                                                \
+    do {                                                                                   \
+        c ^= b; c -= hash_rot(b, 14);                                                       \
+        a ^= c; a -= hash_rot(c, 11);                                                       \
+        b ^= a; b -= hash_rot(a, 25);                                                       \
+        c ^= b; c -= hash_rot(b, 16);                                                       \
+        a ^= c; a -= hash_rot(c, 4);                                                        \
+        b ^= a; b -= hash_rot(a, 14);                                                       \
+        c ^= b; c -= hash_rot(b, 24);                                                       \
+    } while (0)
+
+static inline uint32_t hash_uint(uint32_t kx)
+{
+    uint32_t a, b, c;
+    a = b = c = 0xdeadbeefu + (1u << 2) + 13u;
+    a += kx;
+    HASH_FINAL(a, b, c);
+    return c;
+}
+static inline uint32_t hash_uint2(uint32_t kx, uint32_t ky)
+{
+    uint32_t a, b, c;
+    a = b = c = 0xdeadbeefu + (2u << 2) + 13u;
+    b += ky;
+    a += kx;
+    HASH_FINAL(a, b, c);
+    return c;
+}
+static inline uint32_t hash_uint3(uint32_t kx, uint32_t ky, uint32_t kz)
+{
+    uint32_t a, b, c;
+    a = b = c = 0xdeadbeefu + (3u << 2) + 13u;
+    c += kz;
+    b += ky;
+    a += kx;
+    HASH_FINAL(a, b, c);
+    return c;
+}
+static inline uint32_t hash_uint4(uint32_t kx, uint32_t ky, uint32_t kz, uint32_t kw)
+{
+    uint32_t a, b, c;
+    a = b = c = 0xdeadbeefu + (4u << 2) + 13u;
+    a += kx;
+    b += ky;
+    c += kz;
+    HASH_MIX(a, b, c);
+    a += kw;
+    HASH_FINAL(a, b, c);
+    return c;
+}
+
+/* A 32-bit value to [0, 1] inclusive, rounding as Cycles does: n * (1 / (2^32 - 1)). */
+static inline float uint_to_unit_float(uint32_t n) { return (float)n * (1.0f / (float)0xFFFFFFFFu); }
+
+static inline float hash_float_to_float(float k) { return uint_to_unit_float(hash_uint(float_bits(k))); }
+static inline float hash_float2_to_float(float x, float y)
+{
+    return uint_to_unit_float(hash_uint2(float_bits(x), float_bits(y)));
+}
+static inline float hash_float3_to_float(float3 k)
+{
+    return uint_to_unit_float(hash_uint3(float_bits(k.x), float_bits(k.y), float_bits(k.z)));
+}
+static inline float hash_float4_to_float(float x, float y, float z, float w)
+{
+    return uint_to_unit_float(hash_uint4(float_bits(x), float_bits(y), float_bits(z), float_bits(w)));
+}
+static inline float3 hash_float3_to_float3(float3 k)
+{
+    return make_float3(hash_float3_to_float(k), hash_float4_to_float(k.x, k.y, k.z, 1.0f),
+                       hash_float4_to_float(k.x, k.y, k.z, 2.0f));
+}
+
+#endif

@@ -1,0 +1,127 @@
+/*
+ * Internal to shadergraph: how a node type is described and evaluated.
+ *
+ * Each node family lives in one file under kernels/ (like Cycles' kernel/svm/): pure
+ * scalar functions of the node's inputs, a batch loop over them, and the table that
+ * describes the node to the loader and the compiler (its Blender idname, sockets with
+ * Blender's identifiers and defaults, and enum properties). The registry in
+ * node_registry.c lists every type; nothing else needs to change to add one.
+ */
+#ifndef IMSYNTH_SHADERGRAPH_NODE_TYPE_H
+#define IMSYNTH_SHADERGRAPH_NODE_TYPE_H
+
+#include "shadergraph/shadergraph.h"
+
+/* What an unlinked input reads instead of its default value (Blender's implicit
+ * inputs: texture nodes read Generated coordinates, Bump/BSDF normals read N). */
+typedef enum sg_implicit {
+    SG_IMPLICIT_NONE = 0,
+    SG_IMPLICIT_GENERATED,
+    SG_IMPLICIT_NORMAL, /* shading normal N (world) */
+    SG_IMPLICIT_UV,
+    SG_IMPLICIT_POSITION
+} sg_implicit;
+
+typedef struct sg_socket_def {
+    const char *identifier; /* Blender's socket identifier, e.g. "Value_001" */
+    const char *name;       /* Blender's UI name, e.g. "Value" */
+    sg_socket_type type;
+    float default_value[4]; /* Blender's default; colours carry alpha in [3] */
+    sg_implicit implicit;
+    /* Bitmask of the values of property `avail_prop` for which this socket exists
+     * (Blender hides the others: links to them are errors). 0 = always available.
+     * A second condition (avail_mask2 on avail_prop2) must hold too when non-zero.
+     * 64 bits: the Math node's operation enum has 41 values. */
+    unsigned long long avail_mask;
+    int avail_prop;
+    unsigned long long avail_mask2;
+    int avail_prop2;
+} sg_socket_def;
+
+typedef enum sg_prop_kind {
+    SG_PROP_ENUM, /* one of `values` (Blender enum identifiers) */
+    SG_PROP_BOOL,
+    SG_PROP_FLOAT, /* e.g. Value node's value is a socket; kept for completeness */
+    SG_PROP_COLOR_RAMP
+} sg_prop_kind;
+
+/* Upper bound on properties per node type (kernels index a->prop up to this). */
+#define SG_MAX_PROPS 8
+
+typedef struct sg_prop_def {
+    const char *name; /* Blender RNA property name, e.g. "operation" */
+    sg_prop_kind kind;
+    const char *const *values; /* enum: NULL-terminated identifiers */
+    int default_value;         /* enum index or bool */
+} sg_prop_def;
+
+/* A colour ramp as stored on the node (ColorRamp in Blender). */
+#define SG_RAMP_MAX_ELEMENTS 32
+typedef struct sg_color_ramp {
+    int interpolation;     /* index into sg_ramp_interpolations: EASE, CARDINAL, LINEAR, B_SPLINE, CONSTANT */
+    int color_mode;        /* RGB, HSV, HSL */
+    int hue_interpolation; /* NEAR, FAR, CW, CCW */
+    int n;                 /* elements, sorted by position on load */
+    float position[SG_RAMP_MAX_ELEMENTS];
+    float color[SG_RAMP_MAX_ELEMENTS][4];
+} sg_color_ramp;
+
+extern const char *const sg_ramp_interpolations[];
+extern const char *const sg_ramp_color_modes[];
+extern const char *const sg_ramp_hue_interpolations[];
+
+/* Everything a kernel sees for one batch. Inputs and outputs follow the order of the
+ * type's socket tables; each is a planar SoA array of width * n floats. An output the
+ * program does not use may be NULL: a kernel must check before writing. */
+typedef struct sg_kernel_args {
+    int n;
+    sg_blender_mode blender;
+    const int *prop;           /* per property of the type: enum index or bool */
+    const sg_color_ramp *ramp; /* the node's ramp, for SG_PROP_COLOR_RAMP types */
+    const float *const *in;
+    float *const *out;
+    const sg_geometry_batch *geom; /* for nodes that read geometry (Texture Coordinate) */
+    /* Where geometry is read: 0 at the shading point, 1 one pixel over in x (P + dPdx),
+     * 2 one pixel over in y. The compiler evaluates a Bump node's Height subgraph three
+     * times, once per offset, and passes the two offset heights as extra inputs after
+     * the Bump type's declared ones. */
+    int offset;
+} sg_kernel_args;
+
+typedef void (*sg_kernel_fn)(const sg_kernel_args *a);
+
+typedef struct sg_node_type {
+    const char *idname; /* Blender bl_idname, e.g. "ShaderNodeMath" */
+    const sg_socket_def *inputs;
+    int n_inputs;
+    const sg_socket_def *outputs;
+    int n_outputs;
+    const sg_prop_def *props;
+    int n_props;
+    sg_kernel_fn kernel; /* NULL for structural nodes handled by the compiler (groups,
+                            reroutes, sinks) */
+    unsigned flags;
+} sg_node_type;
+
+enum {
+    SG_NODE_SINK = 1u << 0,      /* Principled BSDF, Material Output: only collects inputs */
+    SG_NODE_STRUCTURAL = 1u << 1, /* group, group input/output, reroute: inlined away */
+    SG_NODE_READS_GEOMETRY = 1u << 2 /* reads a->geom at a->offset (Texture Coordinate) */
+};
+
+/* Registry (node_registry.c). */
+const sg_node_type *sg_node_type_find(const char *idname);
+int sg_node_type_count(void);
+const sg_node_type *sg_node_type_at(int i);
+
+/* Index of a socket/property by identifier/name, or -1. */
+int sg_node_type_input_index(const sg_node_type *t, const char *identifier);
+int sg_node_type_output_index(const sg_node_type *t, const char *identifier);
+int sg_node_type_prop_index(const sg_node_type *t, const char *name);
+/* Whether socket def `s` exists (is not hidden) on a node with these property values. */
+bool sg_socket_available(const sg_socket_def *s, const int *prop);
+
+/* Helpers for kernels reading planar vectors. */
+#define SG_V3(arr, n, i, c) ((arr)[(size_t)(c) * (size_t)(n) + (size_t)(i)])
+
+#endif

@@ -1,0 +1,158 @@
+/*
+ * shadergraph: Blender-compatible shader node graphs.
+ *
+ * A graph is loaded from (and saved to) the JSON format of FORMAT.md, validated on
+ * load, compiled into a flat program for a chosen set of sockets, and evaluated over
+ * batches of shading points with Blender's (Cycles SVM) node semantics.
+ *
+ *   sg_graph   *g = sg_graph_load_file("material.json", &err);
+ *   sg_program *p = sg_compile(g, refs, n_refs, &opts, &err);
+ *   sg_evaluator *e = sg_evaluator_new(p, 256);
+ *   sg_evaluate(e, &geometry_batch, outputs);
+ *
+ * Nothing here keeps global mutable state: a program is immutable once compiled and may
+ * be shared by threads; each thread owns its evaluator (its register file).
+ */
+#ifndef IMSYNTH_SHADERGRAPH_H
+#define IMSYNTH_SHADERGRAPH_H
+
+#include <stddef.h>
+#include <stdbool.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- errors ---------------------------------------------------------------------- */
+
+/* Every fallible call fills one of these. `msg` names the file (or source name) and the
+ * place: "material.json: nodes[3] \"Math.001\": unknown operation \"ADDD\"". */
+typedef struct sg_error {
+    char msg[512];
+} sg_error;
+
+/* Writes a formatted message into err (if err is not NULL). Returns -1 for chaining. */
+int sg_error_set(sg_error *err, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* ---- semantics ------------------------------------------------------------------- */
+
+/* Which Blender release's node semantics to reproduce where 3.x and 4.x differ. */
+typedef enum sg_blender_mode {
+    SG_BLENDER_4 = 4, /* default: Blender 4.x (checked against 4.3) */
+    SG_BLENDER_3 = 3  /* compatibility: Blender 3.x (checked against 3.4) */
+} sg_blender_mode;
+
+/* ---- socket and node types ------------------------------------------------------- */
+
+typedef enum sg_socket_type {
+    SG_SOCKET_FLOAT,  /* 1 float */
+    SG_SOCKET_VECTOR, /* 3 floats */
+    SG_SOCKET_COLOR,  /* 3 floats (RGB; alpha is carried in JSON but not evaluated) */
+    SG_SOCKET_SHADER, /* a closure: never evaluated, only collected by sinks */
+    SG_SOCKET_INT,    /* 1 float holding an integer value (Blender integer sockets) */
+    SG_SOCKET_BOOL    /* 1 float, 0 or 1 */
+} sg_socket_type;
+
+/* Number of floats a value of this type occupies (0 for shader). */
+int sg_socket_type_width(sg_socket_type t);
+const char *sg_socket_type_name(sg_socket_type t); /* "FLOAT", "VECTOR", "RGBA", ... */
+
+/* ---- graphs ---------------------------------------------------------------------- */
+
+typedef struct sg_graph sg_graph;
+
+/* Load and validate. On failure returns NULL and explains in err. `source_name` is used
+ * in messages (usually the file path). */
+sg_graph *sg_graph_load_file(const char *path, sg_error *err);
+sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_name,
+                             sg_error *err);
+
+/* Serialise to JSON text (caller frees with free()). Saving and loading round-trips
+ * losslessly: load(save(g)) saves to the same text. */
+char *sg_graph_to_json(const sg_graph *g);
+/* Write atomically: temp file in the same directory, then rename. */
+int sg_graph_save_file(const sg_graph *g, const char *path, sg_error *err);
+
+void sg_graph_free(sg_graph *g);
+
+/* ---- compiling ------------------------------------------------------------------- */
+
+/* A socket to evaluate: node name and socket identifier, either an output socket of the
+ * node or an input socket (then its linked value, or its default when unlinked). Sinks
+ * such as Principled BSDF are reached through their inputs: {"Principled BSDF",
+ * "Base Color"}. Names inside groups are not addressable; groups are inlined. */
+typedef struct sg_socket_ref {
+    const char *node;
+    const char *socket;
+} sg_socket_ref;
+
+/* Parses "NODE:SOCKET" (the last ':' splits, so node names may contain ':').
+ * Points into `text`, which must outlive the ref; writes a NUL over the ':'. */
+int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err);
+
+typedef struct sg_compile_options {
+    sg_blender_mode blender; /* 0 means SG_BLENDER_4 */
+} sg_compile_options;
+
+typedef struct sg_program sg_program;
+
+/* Inline groups, drop nodes that do not reach the requested sockets, and order the rest
+ * into a flat instruction list. The program does not reference the graph afterwards. */
+sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
+                       const sg_compile_options *opt, sg_error *err);
+void sg_program_free(sg_program *p);
+
+/* Type of requested output k (its width is the number of floats per point). */
+sg_socket_type sg_program_output_type(const sg_program *p, int k);
+int sg_program_output_count(const sg_program *p);
+int sg_program_instruction_count(const sg_program *p);
+
+/* ---- evaluating ------------------------------------------------------------------ */
+
+/* Geometry of a batch of shading points, planar structure-of-arrays: a vector field
+ * `v` holds n x values, then n y values, then n z values (3n floats).
+ * All fields are required. Differentials (dx, dy) are the change of each quantity across
+ * one pixel in x and y; Bump evaluates its Height input at the offset points. */
+typedef struct sg_geometry_batch {
+    int n;
+    const float *P, *dPdx, *dPdy;      /* world position, 3n each */
+    const float *N;                    /* shading normal (world), 3n */
+    const float *Ng;                   /* geometric normal (world), 3n */
+    const float *I;                    /* direction towards the viewer, unit, 3n */
+    const float *generated, *dgenerated_dx, *dgenerated_dy; /* 3n each */
+    const float *uv, *duv_dx, *duv_dy;                      /* 3n each (z = 0) */
+    const float *object, *dobject_dx, *dobject_dy;          /* object-space P, 3n each */
+    const float *object_normal;                             /* object-space N, 3n */
+} sg_geometry_batch;
+
+typedef struct sg_evaluator sg_evaluator;
+
+/* Allocates the register file for batches of up to max_batch points. */
+sg_evaluator *sg_evaluator_new(const sg_program *p, int max_batch);
+void sg_evaluator_free(sg_evaluator *e);
+
+/* Evaluate the program's outputs for geom->n <= max_batch points. out[k] receives
+ * width(k) * n floats, planar. */
+void sg_evaluate(sg_evaluator *e, const sg_geometry_batch *geom, float *const *out);
+
+/* The same program, one point at a time through the same instructions: each instruction
+ * is dispatched once per point. Exists to measure what batching buys (tests/bench). */
+void sg_evaluate_pointwise(sg_evaluator *e, const sg_geometry_batch *geom,
+                           float *const *out);
+
+/* ---- the scene's plane, for eval-graph and tests ---------------------------------- */
+
+/* Fills a geometry batch for pixel centres of a width x height orthographic view of the
+ * scene plane (DESIGN.md): pixels [first, first+n) in row-major order, row 0 at the top.
+ * `storage` must hold 48*n floats (16 vector fields); geom's pointers point into it. */
+void sg_plane_geometry(int width, int height, int first, int n, float *storage,
+                       sg_geometry_batch *geom);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
