@@ -49,7 +49,7 @@ static void tree_where(const sg_graph *g, const sg_tree *t, char *buf, size_t n)
 int sg_tree_find_node(const sg_tree *t, const char *name)
 {
     for (int i = 0; i < t->n_nodes; i++)
-        if (strcmp(t->nodes[i].name, name) == 0)
+        if (t->nodes[i].name && strcmp(t->nodes[i].name, name) == 0)
             return i;
     return -1;
 }
@@ -258,12 +258,11 @@ static int set_sockets_from_iface(sg_node *n, const sg_iface_socket *in, int n_i
 static void update_availability(sg_node *n)
 {
     const sg_node_type *t = n->type;
-    if (t->flags & SG_NODE_STRUCTURAL)
-        return;
+    bool structural = (t->flags & SG_NODE_STRUCTURAL) != 0; /* sockets not from t's tables */
     for (int i = 0; i < n->n_in; i++)
-        n->in[i].available = sg_socket_available(&t->inputs[i], n->prop);
+        n->in[i].available = structural || sg_socket_available(&t->inputs[i], n->prop);
     for (int i = 0; i < n->n_out; i++)
-        n->out[i].available = sg_socket_available(&t->outputs[i], n->prop);
+        n->out[i].available = structural || sg_socket_available(&t->outputs[i], n->prop);
 }
 
 static int parse_ramp(const load_ctx *c, const cJSON *j, const char *where, sg_color_ramp *r)

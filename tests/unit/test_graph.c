@@ -1,0 +1,364 @@
+/*
+ * Graph JSON loading, validation, saving; compiling and evaluating through groups,
+ * reroutes and type conversions.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "shadergraph/shadergraph.h"
+
+/* A small valid material: a Math node feeding Base Color, and a group. */
+static const char *const valid_graph =
+    "{\"format\": \"imsynth-graph/1\", \"name\": \"t\",\n"
+    " \"nodes\": [\n"
+    "  {\"name\": \"V\", \"type\": \"ShaderNodeValue\", \"outputs\": {\"Value\": 0.25}},\n"
+    "  {\"name\": \"M\", \"type\": \"ShaderNodeMath\", \"properties\": {\"operation\": \"MULTIPLY\"},"
+    "   \"inputs\": {\"Value_001\": 3.0}, \"location\": [10, 20], \"label\": \"times three\"},\n"
+    "  {\"name\": \"G\", \"type\": \"ShaderNodeGroup\", \"group\": \"Add\", \"inputs\": {\"B\": 0.5}},\n"
+    "  {\"name\": \"R\", \"type\": \"NodeReroute\"},\n"
+    "  {\"name\": \"Principled BSDF\", \"type\": \"ShaderNodeBsdfPrincipled\"},\n"
+    "  {\"name\": \"Material Output\", \"type\": \"ShaderNodeOutputMaterial\"}],\n"
+    " \"links\": [\n"
+    "  {\"from_node\": \"V\", \"from_socket\": \"Value\", \"to_node\": \"M\", \"to_socket\": \"Value\"},\n"
+    "  {\"from_node\": \"M\", \"from_socket\": \"Value\", \"to_node\": \"G\", \"to_socket\": \"A\"},\n"
+    "  {\"from_node\": \"G\", \"from_socket\": \"Sum\", \"to_node\": \"R\", \"to_socket\": \"Input\"},\n"
+    "  {\"from_node\": \"R\", \"from_socket\": \"Output\", \"to_node\": \"Principled BSDF\", \"to_socket\": \"Base Color\"},\n"
+    "  {\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\", \"to_node\": \"Material Output\", \"to_socket\": \"Surface\"}],\n"
+    " \"groups\": {\"Add\": {\n"
+    "   \"inputs\": [{\"name\": \"A\", \"type\": \"FLOAT\"}, {\"name\": \"B\", \"type\": \"FLOAT\", \"default\": 1.0}],\n"
+    "   \"outputs\": [{\"name\": \"Sum\", \"type\": \"FLOAT\"}],\n"
+    "   \"nodes\": [{\"name\": \"In\", \"type\": \"NodeGroupInput\"},\n"
+    "             {\"name\": \"Add\", \"type\": \"ShaderNodeMath\"},\n"
+    "             {\"name\": \"Out\", \"type\": \"NodeGroupOutput\"}],\n"
+    "   \"links\": [{\"from_node\": \"In\", \"from_socket\": \"A\", \"to_node\": \"Add\", \"to_socket\": \"Value\"},\n"
+    "             {\"from_node\": \"In\", \"from_socket\": \"B\", \"to_node\": \"Add\", \"to_socket\": \"Value_001\"},\n"
+    "             {\"from_node\": \"Add\", \"from_socket\": \"Value\", \"to_node\": \"Out\", \"to_socket\": \"Sum\"}]}}}\n";
+
+/* Replaces the first occurrence of `from` in valid_graph by `to`. */
+static char *mutate(const char *from, const char *to)
+{
+    const char *at = strstr(valid_graph, from);
+    assert_non_null(at);
+    size_t n = strlen(valid_graph) - strlen(from) + strlen(to) + 1;
+    char *s = malloc(n);
+    assert_non_null(s);
+    size_t pre = (size_t)(at - valid_graph);
+    memcpy(s, valid_graph, pre);
+    strcpy(s + pre, to);
+    strcat(s, at + strlen(from));
+    return s;
+}
+
+static sg_graph *load(const char *text, sg_error *err)
+{
+    return sg_graph_load_json(text, strlen(text), "t.json", err);
+}
+
+/* Loading `text` must fail with a message containing every given fragment. */
+static void expect_error(const char *text, const char *frag1, const char *frag2)
+{
+    sg_error err = {{0}};
+    sg_graph *g = load(text, &err);
+    if (g)
+        fail_msg("accepted an invalid graph (expected \"%s\")", frag1);
+    if (!strstr(err.msg, "t.json") || !strstr(err.msg, frag1) || (frag2 && !strstr(err.msg, frag2)))
+        fail_msg("message \"%s\" lacks \"%s\" / \"%s\"", err.msg, frag1, frag2 ? frag2 : "");
+}
+
+static void expect_mutation_error(const char *from, const char *to, const char *frag1,
+                                  const char *frag2)
+{
+    char *s = mutate(from, to);
+    expect_error(s, frag1, frag2);
+    free(s);
+}
+
+static void test_valid_graph_loads(void **state)
+{
+    (void)state;
+    sg_error err = {{0}};
+    sg_graph *g = load(valid_graph, &err);
+    if (!g)
+        fail_msg("%s", err.msg);
+    sg_graph_free(g);
+}
+
+static void test_rejects_bad_json_with_position(void **state)
+{
+    (void)state;
+    expect_error("{\"format\": \"imsynth-graph/1\",\n \"nodes\": [,]}", "t.json:2:", "invalid JSON");
+    expect_error("{\"format\": \"imsynth-graph/1\"} trailing", "unexpected text", NULL);
+}
+
+static void test_rejects_wrong_format(void **state)
+{
+    (void)state;
+    expect_mutation_error("imsynth-graph/1", "imsynth-graph/2", "format", "not supported");
+    expect_mutation_error("\"format\": \"imsynth-graph/1\",", "", "format", "missing");
+}
+
+static void test_rejects_unknown_things(void **state)
+{
+    (void)state;
+    expect_mutation_error("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfPrincipledX", "unknown node type",
+                          "ShaderNodeBsdfPrincipledX");
+    expect_mutation_error("\"Value_001\": 3.0", "\"Value_009\": 3.0", "Value_009", "no input socket");
+    expect_mutation_error("\"operation\": \"MULTIPLY\"", "\"operation\": \"MULTIPLYY\"", "operation",
+                          "MULTIPLYY");
+    expect_mutation_error("\"operation\": \"MULTIPLY\"", "\"operationz\": \"MULTIPLY\"", "no property",
+                          "operationz");
+    expect_mutation_error("\"label\": \"times three\"", "\"lable\": \"x\"", "unknown key", "lable");
+    expect_mutation_error("\"group\": \"Add\"", "\"group\": \"Nope\"", "unknown group", "Nope");
+    expect_mutation_error("\"to_socket\": \"Base Color\"", "\"to_socket\": \"Base Colour\"",
+                          "no input socket", "Base Colour");
+    expect_mutation_error("\"from_node\": \"V\"", "\"from_node\": \"W\"", "links[0]", "no node named \"W\"");
+}
+
+static void test_rejects_bad_values(void **state)
+{
+    (void)state;
+    /* 1e999 parses to infinity: not a finite float. */
+    expect_mutation_error("\"Value_001\": 3.0", "\"Value_001\": 1e999", "Value_001", "finite");
+    expect_mutation_error("\"Value_001\": 3.0", "\"Value_001\": 1e39", "Value_001", "finite");
+    expect_mutation_error("\"Value_001\": 3.0", "\"Value_001\": [1, 2, 3]", "Value_001", "expected a number");
+    expect_mutation_error("\"location\": [10, 20]", "\"location\": [10]", "location", NULL);
+    expect_mutation_error("\"B\": 0.5", "\"B\": \"half\"", "inputs.B", "expected a number");
+}
+
+static void test_rejects_structural_errors(void **state)
+{
+    (void)state;
+    /* Duplicate node name. */
+    expect_mutation_error("{\"name\": \"R\",", "{\"name\": \"M\",", "duplicate node name", "\"M\"");
+    /* Two links into one input. */
+    expect_mutation_error("\"to_node\": \"G\", \"to_socket\": \"A\"", "\"to_node\": \"M\", \"to_socket\": \"Value\"",
+                          "already has a link", NULL);
+    /* A cycle: M feeds G feeds R ... make G feed M's second input. */
+    expect_mutation_error("{\"from_node\": \"G\", \"from_socket\": \"Sum\", \"to_node\": \"R\", \"to_socket\": \"Input\"}",
+                          "{\"from_node\": \"G\", \"from_socket\": \"Sum\", \"to_node\": \"M\", \"to_socket\": \"Value_001\"}",
+                          "cycle", NULL);
+    /* Shader into a colour socket. */
+    expect_mutation_error("\"to_node\": \"Material Output\", \"to_socket\": \"Surface\"",
+                          "\"to_node\": \"Material Output\", \"to_socket\": \"Displacement\"",
+                          "cannot link SHADER", NULL);
+    /* Hidden socket: Math's third input for MULTIPLY. */
+    expect_mutation_error("\"to_node\": \"M\", \"to_socket\": \"Value\"}",
+                          "\"to_node\": \"M\", \"to_socket\": \"Value_002\"}", "hidden", "Value_002");
+    /* No Material Output. */
+    expect_mutation_error("\"ShaderNodeOutputMaterial\"", "\"ShaderNodeBsdfPrincipled\"", "Material Output", NULL);
+    /* A group that contains itself. */
+    expect_mutation_error("{\"name\": \"Out\", \"type\": \"NodeGroupOutput\"}",
+                          "{\"name\": \"Out\", \"type\": \"NodeGroupOutput\"},"
+                          "{\"name\": \"Self\", \"type\": \"ShaderNodeGroup\", \"group\": \"Add\"}",
+                          "contains itself", NULL);
+    /* Group interface nodes outside a group. */
+    expect_mutation_error("{\"name\": \"R\", \"type\": \"NodeReroute\"}",
+                          "{\"name\": \"R\", \"type\": \"NodeGroupInput\"}", "only allowed inside a group", NULL);
+}
+
+static void test_round_trip_is_lossless(void **state)
+{
+    (void)state;
+    sg_error err;
+    sg_graph *g = load(valid_graph, &err);
+    assert_non_null(g);
+    char *a = sg_graph_to_json(g);
+    sg_graph *h = load(a, &err);
+    if (!h)
+        fail_msg("reload failed: %s\n%s", err.msg, a);
+    char *b = sg_graph_to_json(h);
+    assert_string_equal(a, b);
+    /* Values that matter survive: the label, the non-default input, the group default. */
+    assert_non_null(strstr(a, "times three"));
+    assert_non_null(strstr(a, "\"Value_001\":\t3"));
+    assert_non_null(strstr(a, "0.25"));
+    free(a);
+    free(b);
+    sg_graph_free(g);
+    sg_graph_free(h);
+}
+
+static void test_save_file_is_atomic_and_reloads(void **state)
+{
+    (void)state;
+    sg_error err;
+    sg_graph *g = load(valid_graph, &err);
+    assert_non_null(g);
+    char path[] = IMSYNTH_BINARY_DIR "/test_graph_save.json";
+    assert_int_equal(sg_graph_save_file(g, path, &err), 0);
+    sg_graph *h = sg_graph_load_file(path, &err);
+    assert_non_null(h);
+    /* Saving into a missing directory fails with the path in the message. */
+    assert_int_equal(sg_graph_save_file(g, IMSYNTH_BINARY_DIR "/no/such/dir/x.json", &err), -1);
+    assert_non_null(strstr(err.msg, "no/such/dir/x.json"));
+    remove(path);
+    sg_graph_free(g);
+    sg_graph_free(h);
+}
+
+/* Evaluate one float socket at 4 points of the plane. */
+static void eval_float(const char *text, const char *node, const char *socket, float out[4])
+{
+    sg_error err;
+    sg_graph *g = load(text, &err);
+    if (!g)
+        fail_msg("%s", err.msg);
+    sg_socket_ref ref = {node, socket};
+    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    if (!p)
+        fail_msg("%s", err.msg);
+    sg_evaluator *e = sg_evaluator_new(p, 4);
+    float geom[48 * 4], v[3 * 4];
+    sg_geometry_batch gb;
+    sg_plane_geometry(2, 2, 0, 4, geom, &gb);
+    float *o[1] = {v};
+    sg_evaluate(e, &gb, o);
+    int w = sg_socket_type_width(sg_program_output_type(p, 0));
+    for (int i = 0; i < 4; i++)
+        out[i] = v[i]; /* first channel */
+    (void)w;
+    sg_evaluator_free(e);
+    sg_program_free(p);
+    sg_graph_free(g);
+}
+
+static void test_eval_through_group_and_reroute(void **state)
+{
+    (void)state;
+    float v[4];
+    /* 0.25 * 3 + 0.5 (the group node's B overrides the interface default 1.0). */
+    eval_float(valid_graph, "Principled BSDF", "Base Color", v);
+    for (int i = 0; i < 4; i++)
+        assert_float_equal(v[i], 1.25f, 0.0f);
+    eval_float(valid_graph, "M", "Value", v);
+    assert_float_equal(v[0], 0.75f, 0.0f);
+    /* Unlinked input reads its default. */
+    eval_float(valid_graph, "Principled BSDF", "Roughness", v);
+    assert_float_equal(v[0], 0.5f, 0.0f);
+}
+
+static void test_compile_errors(void **state)
+{
+    (void)state;
+    sg_error err;
+    sg_graph *g = load(valid_graph, &err);
+    assert_non_null(g);
+    sg_socket_ref bad[] = {{"Nope", "Value"}, {"M", "Nope"}, {"Principled BSDF", "BSDF"}};
+    const char *frag[] = {"Nope", "Nope", "shader"};
+    for (int i = 0; i < 3; i++) {
+        sg_program *p = sg_compile(g, &bad[i], 1, NULL, &err);
+        assert_null(p);
+        if (!strstr(err.msg, frag[i]))
+            fail_msg("\"%s\" lacks \"%s\"", err.msg, frag[i]);
+    }
+    sg_graph_free(g);
+}
+
+static void test_socket_ref_parse(void **state)
+{
+    (void)state;
+    sg_socket_ref r;
+    sg_error err;
+    char a[] = "Node:With:Colons:Fac";
+    assert_int_equal(sg_socket_ref_parse(a, &r, &err), 0);
+    assert_string_equal(r.node, "Node:With:Colons");
+    assert_string_equal(r.socket, "Fac");
+    char b[] = "NoColon";
+    assert_int_equal(sg_socket_ref_parse(b, &r, &err), -1);
+    char c[] = "Node:";
+    assert_int_equal(sg_socket_ref_parse(c, &r, &err), -1);
+}
+
+/* A colour into a float socket converts by luminance, a vector by the average, a
+ * float into a colour broadcasts. */
+static void test_link_conversions(void **state)
+{
+    (void)state;
+    const char *text =
+        "{\"format\": \"imsynth-graph/1\", \"nodes\": [\n"
+        " {\"name\": \"C\", \"type\": \"ShaderNodeRGB\", \"outputs\": {\"Color\": [0.5, 0.25, 1.0, 1.0]}},\n"
+        " {\"name\": \"M\", \"type\": \"ShaderNodeMath\"},\n"
+        " {\"name\": \"Out\", \"type\": \"ShaderNodeOutputMaterial\"}],\n"
+        " \"links\": [{\"from_node\": \"C\", \"from_socket\": \"Color\", \"to_node\": \"M\", \"to_socket\": \"Value\"},\n"
+        "  {\"from_node\": \"M\", \"from_socket\": \"Value\", \"to_node\": \"Out\", \"to_socket\": \"Thickness\"}]}";
+    float v[4];
+    eval_float(text, "M", "Value", v);
+    /* Math ADD with Value_001 default 0.5. */
+    assert_float_equal(v[0], 0.5f * 0.2126f + 0.25f * 0.7152f + 1.0f * 0.0722f + 0.5f, 1e-6f);
+}
+
+/* Batch and pointwise evaluation run the same instructions: identical results. */
+static void test_pointwise_equals_batch(void **state)
+{
+    (void)state;
+    const char *text =
+        "{\"format\": \"imsynth-graph/1\", \"nodes\": [\n"
+        " {\"name\": \"T\", \"type\": \"ShaderNodeTexCoord\"},\n"
+        " {\"name\": \"N\", \"type\": \"ShaderNodeTexNoise\", \"inputs\": {\"Detail\": 4.5}},\n"
+        " {\"name\": \"B\", \"type\": \"ShaderNodeBump\"},\n"
+        " {\"name\": \"Out\", \"type\": \"ShaderNodeOutputMaterial\"}],\n"
+        " \"links\": [{\"from_node\": \"T\", \"from_socket\": \"Object\", \"to_node\": \"N\", \"to_socket\": \"Vector\"},\n"
+        "  {\"from_node\": \"N\", \"from_socket\": \"Fac\", \"to_node\": \"B\", \"to_socket\": \"Height\"},\n"
+        "  {\"from_node\": \"B\", \"from_socket\": \"Normal\", \"to_node\": \"Out\", \"to_socket\": \"Displacement\"}]}";
+    sg_error err;
+    sg_graph *g = load(text, &err);
+    if (!g)
+        fail_msg("%s", err.msg);
+    sg_socket_ref ref[2] = {{"B", "Normal"}, {"N", "Color"}};
+    sg_program *p = sg_compile(g, ref, 2, NULL, &err);
+    if (!p)
+        fail_msg("%s", err.msg);
+    enum { N = 100 };
+    sg_evaluator *e = sg_evaluator_new(p, N);
+    static float geom[48 * N], a0[3 * N], a1[3 * N], b0[3 * N], b1[3 * N];
+    sg_geometry_batch gb;
+    sg_plane_geometry(64, 64, 1000, N, geom, &gb);
+    float *oa[2] = {a0, a1}, *ob[2] = {b0, b1};
+    sg_evaluate(e, &gb, oa);
+    sg_evaluate_pointwise(e, &gb, ob);
+    /* And a batch again, after pointwise changed the constants' layout. */
+    sg_evaluate(e, &gb, oa);
+    assert_memory_equal(a0, b0, sizeof a0);
+    assert_memory_equal(a1, b1, sizeof a1);
+    /* The bumped normal is unit length and tilted somewhere. */
+    int tilted = 0;
+    for (int i = 0; i < N; i++) {
+        float x = a0[i], y = a0[N + i], z = a0[2 * N + i];
+        assert_float_equal(x * x + y * y + z * z, 1.0f, 1e-5f);
+        tilted += z < 0.999f;
+    }
+    assert_true(tilted > 0);
+    /* Texture Coordinate and Noise are emitted for each of Bump's three offsets,
+     * the Bump once: 3 * 2 + 1 instructions. */
+    assert_int_equal(sg_program_instruction_count(p), 7);
+    sg_evaluator_free(e);
+    sg_program_free(p);
+    sg_graph_free(g);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_valid_graph_loads),
+        cmocka_unit_test(test_rejects_bad_json_with_position),
+        cmocka_unit_test(test_rejects_wrong_format),
+        cmocka_unit_test(test_rejects_unknown_things),
+        cmocka_unit_test(test_rejects_bad_values),
+        cmocka_unit_test(test_rejects_structural_errors),
+        cmocka_unit_test(test_round_trip_is_lossless),
+        cmocka_unit_test(test_save_file_is_atomic_and_reloads),
+        cmocka_unit_test(test_eval_through_group_and_reroute),
+        cmocka_unit_test(test_compile_errors),
+        cmocka_unit_test(test_socket_ref_parse),
+        cmocka_unit_test(test_link_conversions),
+        cmocka_unit_test(test_pointwise_equals_batch),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
