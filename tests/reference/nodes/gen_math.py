@@ -18,7 +18,12 @@ Non-finite results: Cycles' film replaces any non-finite component of a sample b
 (kernel/film/light_passes.h, film_clamp_light -> ensure_finite), so Blender's EXR holds
 0 where the node produced inf or NaN; the comparison applies the same rule to our
 values. Cases marked "non-finite" exercise that on purpose (exp overflow, sinh of huge
-values, 0^-1, 3.4's REFLECT/REFRACT with a zero normal).
+values, 0^-1, 3.4's REFLECT/REFRACT with a zero normal). The same function then applies
+the sample clamp: with clamping off the limit is FLT_MAX, and it scales the sample by
+limit / (|R| + |G| + |B|); when that sum overflows to inf the whole pixel becomes 0
+even though each component is finite (measured in 3.4 and 4.3: (1.0e38, 1.1e38,
+1.7e38) reads (0, 0, 0), (0.9e38, 1.05e38, 0.86e38) passes unchanged). A float socket
+reaches the film as (v, v, v), so |v| > FLT_MAX / 3 reads 0. math_film_overflow shows it.
 
 Magnitudes: the comparison is absolute (1e-4), so outputs are kept below about 1e3
 where a result could legitimately differ in its last bit; huge inputs (1e30) are fed
@@ -197,6 +202,16 @@ def math_cases():
             "a^40 overflowing / underflowing.")
 
 
+def film_cases():
+    k = Case()
+    big_x = k.g.map_range(k.x, 0.0, 1.7e38)
+    big_y = k.g.map_range(k.y, 0.0, 1.7e38)
+    k.write("math_film_overflow",
+            k.combine(k.math("ADD", big_x, 0.0), k.math("ADD", big_y, 0.0), 0.0),
+            "Film: components up to 1.7e38 are finite, but where |R| + |G| + |B| overflows "
+            "Cycles' sample clamp (limit FLT_MAX) scales the pixel by FLT_MAX / inf = 0.")
+
+
 def vector_cases():
     def vectors(k):
         """A = (x sweep, y sweep, 0.5 x sweep - 1) and B = (y sweep, -x sweep, 1 - y):
@@ -352,6 +367,7 @@ def map_range_cases():
 
 if __name__ == "__main__":
     math_cases()
+    film_cases()
     vector_cases()
     clamp_cases()
     map_range_cases()
