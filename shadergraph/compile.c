@@ -168,21 +168,7 @@ static source convert(compiler *c, source s, sg_socket_type to)
     if (kind == SG_CONVERT_NONE)
         return r;
     if (s.is_const) {
-        const float *v = s.value;
-        switch (kind) {
-        case SG_CONVERT_FLOAT_TO_VECTOR:
-            r.value[1] = r.value[2] = v[0];
-            r.value[3] = 1.0f;
-            break;
-        case SG_CONVERT_COLOR_TO_FLOAT:
-            r.value[0] = v[0] * SG_LUMA_R + v[1] * SG_LUMA_G + v[2] * SG_LUMA_B;
-            break;
-        case SG_CONVERT_VECTOR_TO_FLOAT:
-            r.value[0] = (v[0] + v[1] + v[2]) * (1.0f / 3.0f);
-            break;
-        default:
-            break;
-        }
+        sg_convert_constant(s.type, to, s.value, r.value);
         return r;
     }
     int reg = new_reg(c, SG_REG_TEMP, is_vec(to) ? 3 : 1);
@@ -198,6 +184,21 @@ static source convert(compiler *c, source s, sg_socket_type to)
     c->p->regs[reg].varies = c->p->regs[s.reg].varies;
     r.reg = reg;
     return r;
+}
+
+void sg_convert_constant(sg_socket_type from, sg_socket_type to, const float in[4], float out[4])
+{
+    float v[4];
+    memcpy(v, in, sizeof v);
+    if (is_vec(to) && !is_vec(from)) {
+        v[1] = v[2] = v[0];
+        v[3] = 1.0f;
+    } else if (!is_vec(to) && from == SG_SOCKET_COLOR) {
+        v[0] = v[0] * SG_LUMA_R + v[1] * SG_LUMA_G + v[2] * SG_LUMA_B;
+    } else if (!is_vec(to) && from == SG_SOCKET_VECTOR) {
+        v[0] = (v[0] + v[1] + v[2]) * (1.0f / 3.0f);
+    }
+    memcpy(out, v, sizeof v);
 }
 
 static source resolve_output(compiler *c, instance *in, int node, int socket);

@@ -57,4 +57,8 @@ struct sg_program {
 #define SG_LUMA_G 0.7152f
 #define SG_LUMA_B 0.0722f
 
+/* Converts a constant of type `from` to type `to` exactly as a link between such
+ * sockets converts values (compile.c). `in` and `out` may alias. */
+void sg_convert_constant(sg_socket_type from, sg_socket_type to, const float in[4], float out[4]);
+
 #endif

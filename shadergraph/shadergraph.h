@@ -144,6 +144,22 @@ void sg_evaluate(sg_evaluator *e, const sg_geometry_batch *geom, float *const *o
 void sg_evaluate_pointwise(sg_evaluator *e, const sg_geometry_batch *geom,
                            float *const *out);
 
+/* ---- sub-shader extraction ------------------------------------------------------- */
+
+typedef struct sg_extract_options {
+    sg_blender_mode blender; /* semantics used when folding constants; 0 = SG_BLENDER_4 */
+} sg_extract_options;
+
+/* The smallest graph we can prove computes what `g` computes, for g's constant values
+ * (bind parameters first): groups inlined, constants folded, identities bypassed,
+ * duplicates merged, dead nodes removed, laid out in columns. Returns a new graph
+ * without groups (free with sg_graph_free), or NULL with a message. */
+sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err);
+
+/* Nodes as Blender shows them with every group expanded in place: a group node counts
+ * as its group's nodes (recursively), not as one. */
+int sg_graph_node_count(const sg_graph *g);
+
 /* ---- the scene's plane, for eval-graph and tests ---------------------------------- */
 
 /* Fills a geometry batch for pixel centres of a width x height orthographic view of the
