@@ -163,6 +163,14 @@ def main():
                Gain=0.05, note="Low Gain: the weight drops below 0.001 and octaves stop.")
     noise_case("hybrid_detail15", noise_type="HYBRID_MULTIFRACTAL", Detail=15.0, Offset=0.5,
                note="Detail 15 (4.3 only: 3.4's Musgrave stops at 15 octaves).")
+    noise_case("multifractal_unnormalized", noise_type="MULTIFRACTAL", normalize=False,
+               Detail=3.0, Roughness=0.7, Lacunarity=2.2,
+               note="Normalize off: no effect on Multifractal.")
+    noise_case("ridged_unnormalized", noise_type="RIDGED_MULTIFRACTAL", normalize=False,
+               Detail=2.5, Offset=0.9, Gain=1.5, note="Normalize off: no effect on Ridged.")
+    noise_case("hybrid_unnormalized", noise_type="HYBRID_MULTIFRACTAL", normalize=False,
+               Detail=4.0, Roughness=1.0, Offset=0.3, Gain=2.0,
+               note="Normalize off: no effect on Hybrid; Roughness 1.")
     noise_case("hetero_detail2p7", noise_type="HETERO_TERRAIN", Detail=2.7, Offset=0.4,
                note="Hetero terrain, fractional Detail.")
     noise_case("hetero_rough0_unnormalized", noise_type="HETERO_TERRAIN", normalize=False,
