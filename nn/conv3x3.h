@@ -1,0 +1,27 @@
+/* Internal to nn: the chunked 3x3 convolution engine (conv3x3.c) used by vgg19.c. */
+#ifndef IMSYNTH_NN_CONV3X3_H
+#define IMSYNTH_NN_CONV3X3_H
+
+#include <stddef.h>
+
+/* One conv layer's forward pass over a batch, split into independent chunks of `chunk`
+ * columns (Winograd tiles, or output pixels for im2col) counted across the batch. */
+typedef struct conv_layer {
+    const float *in; /* (N,C,H,W) */
+    float *out;      /* (N,K,H,W) */
+    int N, C, K, H, W;
+    int winograd;        /* 1: U is used; 0: weight is used */
+    const float *U;      /* (16,K,C) Winograd-transformed weights */
+    const float *weight; /* (K,C*9) */
+    const float *bias;   /* (K) */
+    int chunk;
+} conv_layer;
+
+void winograd_weights(float *U, const float *w, int K, int C);
+int conv_chunk_columns(int winograd, int C, int K, size_t budget);
+size_t conv_scratch_floats(int winograd, int C, int K, int chunk);
+size_t conv_chunk_count(const conv_layer *L);
+/* Compute chunk `chunk` of L; scratch holds conv_scratch_floats() floats. */
+void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch);
+
+#endif

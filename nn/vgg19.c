@@ -1,0 +1,470 @@
+/*
+ * VGG19's convolutional part and its Gram descriptor.
+ *
+ * torchvision's `features` numbering, which the weight files use:
+ *   block 1: convs 0, 2            pool 4      Gram after conv1_2 (features.2)
+ *   block 2: convs 5, 7            pool 9      Gram after conv2_2 (features.7)
+ *   block 3: convs 10, 12, 14, 16  pool 18     Gram after conv3_4 (features.16)
+ *   block 4: convs 19, 21, 23, 25  pool 27     Gram after conv4_4 (features.25)
+ *   block 5: convs 28, 30, 32, 34              Gram after conv5_4 (features.34)
+ * Every conv is 3x3, stride 1, padding 1, followed by a ReLU. The last pool is skipped:
+ * nothing after conv5_4 is used.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "nn/conv3x3.h"
+#include "nn/nn.h"
+
+const int vgg19_standard_width[5] = {64, 128, 256, 512, 512};
+
+static const int convs_per_block[5] = {2, 2, 4, 4, 4};
+static const int torch_index[VGG_CONV_LAYERS] = {0,  2,  5,  7,  10, 12, 14, 16,
+                                                 19, 21, 23, 25, 28, 30, 32, 34};
+/* The convs whose output a Gram is taken of, and after which a pool follows (but 15). */
+static const int block_last_conv[5] = {1, 3, 7, 11, 15};
+
+/* Cache budget per worker for one chunk's buffers: about half an L2 (2 MB here) so the
+ * transformed inputs, the products and a slice of the weights stay resident. */
+#define CONV_CHUNK_BUDGET ((size_t)1 << 20)
+
+static void set_err(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (!err || !errlen)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+}
+
+int vgg_pool_parse(const char *s)
+{
+    if (!strcmp(s, "avg3"))
+        return VGG_POOL_AVG3;
+    if (!strcmp(s, "avg2"))
+        return VGG_POOL_AVG2;
+    if (!strcmp(s, "max2"))
+        return VGG_POOL_MAX2;
+    return -1;
+}
+
+int vgg_precision_parse(const char *s)
+{
+    if (!strcmp(s, "fp32"))
+        return VGG_PRECISION_FP32;
+    if (!strcmp(s, "fast"))
+        return VGG_PRECISION_FAST;
+    return -1;
+}
+
+/* ------------------------------------------------------------ weights ------------- */
+
+static void set_widths(vgg19 *net, const int width[5])
+{
+    int l = 0, cin = 3;
+    for (int b = 0; b < 5; b++) {
+        net->width[b] = width[b];
+        for (int i = 0; i < convs_per_block[b]; i++, l++) {
+            net->cin[l] = cin;
+            net->cout[l] = width[b];
+            cin = width[b];
+        }
+    }
+}
+
+static int alloc_weights(vgg19 *net)
+{
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        net->weight[l] = malloc((size_t)net->cout[l] * net->cin[l] * 9 * sizeof(float));
+        net->bias[l] = malloc((size_t)net->cout[l] * sizeof(float));
+        if (!net->weight[l] || !net->bias[l])
+            return -1;
+    }
+    return 0;
+}
+
+void vgg19_free(vgg19 *net)
+{
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        free(net->weight[l]);
+        free(net->bias[l]);
+        net->weight[l] = net->bias[l] = NULL;
+    }
+}
+
+/* splitmix64's finaliser: a bijective 64-bit mix, so (seed, layer, index) -> bits is a
+ * pure function and the weights do not depend on the order they are drawn in. */
+static uint64_t mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* Standard normal from a counter: Box-Muller on two 53-bit uniforms in (0,1]. */
+static double normal_at(uint64_t seed, uint64_t layer, uint64_t index)
+{
+    uint64_t a = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * index + 1));
+    uint64_t b = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * index + 2));
+    double u1 = ((a >> 11) + 1) * 0x1p-53, u2 = (b >> 11) * 0x1p-53;
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+/*
+ * Which random initialisation, and why it gives usable texture statistics:
+ * He (Kaiming) normal, w ~ N(0, 2 / fan_in) with fan_in = 9 cin, and zero bias. With that
+ * variance a ReLU layer keeps the second moment of its input (He et al. 2015), so for a
+ * unit-variance image every one of the 16 layers sees activations of order 1 and the
+ * five Gram matrices have comparable, non-degenerate scales, instead of shrinking or
+ * growing geometrically with depth as a fixed-variance init would. Random filters of a
+ * deep network with this scaling are known to carry enough texture statistics for Gatys'
+ * texture synthesis (Ustyuzhaninov et al. 2017, "What does it take to generate natural
+ * textures?"; He, Wang & Hopcroft 2016): Gram matrices of random multi-scale features
+ * still separate textures by their local structure at each receptive-field size.
+ */
+int vgg19_init_random(vgg19 *net, const int width[5], uint64_t seed)
+{
+    memset(net, 0, sizeof *net);
+    set_widths(net, width);
+    if (alloc_weights(net)) {
+        vgg19_free(net);
+        return -1;
+    }
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        size_t n = (size_t)net->cout[l] * net->cin[l] * 9;
+        double std = sqrt(2.0 / (9.0 * net->cin[l]));
+        for (size_t i = 0; i < n; i++)
+            net->weight[l][i] = (float)(std * normal_at(seed, (uint64_t)l, i));
+        memset(net->bias[l], 0, (size_t)net->cout[l] * sizeof(float));
+    }
+    return 0;
+}
+
+int vgg19_load(vgg19 *net, const char *path, char *err, size_t errlen)
+{
+    memset(net, 0, sizeof *net);
+    nn_safetensors st;
+    if (nn_safetensors_open(path, &st, err, errlen))
+        return -1;
+    /* Widths from the last conv of each block's weight shape (cout, cin, 3, 3). */
+    int width[5];
+    for (int b = 0; b < 5; b++) {
+        char name[64];
+        snprintf(name, sizeof name, "features.%d.weight", torch_index[block_last_conv[b]]);
+        int i = nn_safetensors_find(&st, name);
+        if (i < 0) {
+            set_err(err, errlen, "%s: no tensor \"%s\" (torchvision VGG19 key names expected)",
+                    path, name);
+            nn_safetensors_close(&st);
+            return -1;
+        }
+        if (st.tensors[i].ndim != 4 || st.tensors[i].shape[0] < 1 ||
+            st.tensors[i].shape[0] > 4096) {
+            set_err(err, errlen, "%s: tensor \"%s\" is not a (cout, cin, 3, 3) conv weight",
+                    path, name);
+            nn_safetensors_close(&st);
+            return -1;
+        }
+        width[b] = (int)st.tensors[i].shape[0];
+    }
+    set_widths(net, width);
+    if (alloc_weights(net)) {
+        set_err(err, errlen, "%s: out of memory", path);
+        goto fail;
+    }
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        char name[64];
+        int64_t wshape[4] = {net->cout[l], net->cin[l], 3, 3}, bshape[1] = {net->cout[l]};
+        snprintf(name, sizeof name, "features.%d.weight", torch_index[l]);
+        if (nn_safetensors_read_f32(&st, name, 4, wshape, net->weight[l], err, errlen))
+            goto fail;
+        snprintf(name, sizeof name, "features.%d.bias", torch_index[l]);
+        if (nn_safetensors_read_f32(&st, name, 1, bshape, net->bias[l], err, errlen))
+            goto fail;
+        size_t n = (size_t)net->cout[l] * net->cin[l] * 9;
+        for (size_t i = 0; i < n; i++)
+            if (!isfinite(net->weight[l][i])) {
+                set_err(err, errlen, "%s: tensor \"features.%d.weight\" has a non-finite value "
+                        "at flat index %zu", path, torch_index[l], i);
+                goto fail;
+            }
+    }
+    nn_safetensors_close(&st);
+    return 0;
+fail:
+    nn_safetensors_close(&st);
+    vgg19_free(net);
+    return -1;
+}
+
+size_t vgg19_descriptor_size(const vgg19 *net)
+{
+    size_t off[VGG_GRAM_LAYERS + 1];
+    vgg19_descriptor_offsets(net, off);
+    return off[VGG_GRAM_LAYERS];
+}
+
+void vgg19_descriptor_offsets(const vgg19 *net, size_t offsets[VGG_GRAM_LAYERS + 1])
+{
+    offsets[0] = 0;
+    for (int b = 0; b < 5; b++)
+        offsets[b + 1] = offsets[b] + (size_t)net->width[b] * (net->width[b] + 1) / 2;
+}
+
+/* ------------------------------------------------------------ preprocessing ------- */
+
+int vgg_preprocess(float *out, const float *pixels, int width, int height, int channels)
+{
+    static const float mean[3] = {0.485f, 0.456f, 0.406f}, std[3] = {0.229f, 0.224f, 0.225f};
+    if (width < VGG_INPUT_SIZE || height < VGG_INPUT_SIZE || channels < 1 || channels > 4)
+        return -1;
+    int y0 = (height - VGG_INPUT_SIZE) / 2, x0 = (width - VGG_INPUT_SIZE) / 2;
+    for (int c = 0; c < 3; c++) {
+        /* Grey (1) and grey+alpha (2) replicate their first channel; alpha is dropped. */
+        int src_c = channels >= 3 ? c : 0;
+        for (int y = 0; y < VGG_INPUT_SIZE; y++)
+            for (int x = 0; x < VGG_INPUT_SIZE; x++) {
+                float v = pixels[((size_t)(y0 + y) * width + x0 + x) * channels + src_c];
+                v = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; /* also maps NaN to 0 */
+                out[((size_t)c * VGG_INPUT_SIZE + y) * VGG_INPUT_SIZE + x] =
+                    (v - mean[c]) / std[c];
+            }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------ workspace ----------- */
+
+struct vgg_workspace {
+    const vgg19 *net;
+    vgg_options opt;
+    int max_batch;
+    float *act[2];                  /* ping-pong activations, max_batch * largest layer */
+    float *U[VGG_CONV_LAYERS];      /* Winograd weights, or NULL for im2col layers */
+    int winograd[VGG_CONV_LAYERS];
+    int chunk[VGG_CONV_LAYERS];
+    float *gram_scratch;            /* C*C of the widest layer */
+    int threads;
+    float **scratch;                /* per thread */
+    size_t bytes;
+    /* worker pool: the caller is worker 0 */
+    pthread_t *tid;
+    pthread_barrier_t start, done;
+    const conv_layer *job;
+    atomic_size_t next_chunk;
+    size_t job_chunks;
+    int quit;
+};
+
+/* Spatial size of conv layer l's input for the pooling mode. */
+static int layer_size(vgg_pool pool, int l)
+{
+    int s = VGG_INPUT_SIZE;
+    for (int b = 0; b < 5; b++) {
+        if (l <= block_last_conv[b])
+            return s;
+        s = pool == VGG_POOL_AVG3 ? (s - 3) / 3 + 1 : (s - 2) / 2 + 1;
+    }
+    return s;
+}
+
+static void run_chunks(vgg_workspace *ws, int worker)
+{
+    for (;;) {
+        size_t c = atomic_fetch_add(&ws->next_chunk, 1);
+        if (c >= ws->job_chunks)
+            break;
+        conv_run_chunk(ws->job, c, ws->scratch[worker]);
+    }
+}
+
+typedef struct worker_arg {
+    vgg_workspace *ws;
+    int index;
+} worker_arg;
+
+static void *worker_main(void *p)
+{
+    vgg_workspace *ws = ((worker_arg *)p)->ws;
+    int index = ((worker_arg *)p)->index;
+    free(p);
+    for (;;) {
+        pthread_barrier_wait(&ws->start);
+        if (ws->quit)
+            break;
+        run_chunks(ws, index);
+        pthread_barrier_wait(&ws->done);
+    }
+    return NULL;
+}
+
+/* Layers whose input is thin (conv1_1: 3 channels) or whose plane is tiny go through
+ * im2col; the rest through Winograd. */
+static int use_winograd(int cin, int size)
+{
+    return cin >= 16 && size >= 4;
+}
+
+vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, int max_batch)
+{
+    vgg_workspace *ws = calloc(1, sizeof *ws);
+    if (!ws)
+        return NULL;
+    ws->net = net;
+    ws->opt = *opt;
+    ws->max_batch = max_batch < 1 ? 1 : max_batch;
+    ws->threads = opt->threads < 1 ? 1 : opt->threads;
+    size_t largest = (size_t)3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE, scratch_floats = 0;
+    int widest = 0;
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        int s = layer_size(opt->pool, l), C = net->cin[l], K = net->cout[l];
+        size_t a = (size_t)K * s * s;
+        largest = a > largest ? a : largest;
+        widest = K > widest ? K : widest;
+        ws->winograd[l] = use_winograd(C, s);
+        ws->chunk[l] = conv_chunk_columns(ws->winograd[l], C, K, CONV_CHUNK_BUDGET);
+        size_t sf = conv_scratch_floats(ws->winograd[l], C, K, ws->chunk[l]);
+        scratch_floats = sf > scratch_floats ? sf : scratch_floats;
+        if (ws->winograd[l]) {
+            ws->U[l] = malloc(16 * (size_t)K * C * sizeof(float));
+            if (!ws->U[l])
+                goto fail;
+            winograd_weights(ws->U[l], net->weight[l], K, C);
+            ws->bytes += 16 * (size_t)K * C * sizeof(float);
+        }
+    }
+    for (int i = 0; i < 2; i++) {
+        ws->act[i] = malloc((size_t)ws->max_batch * largest * sizeof(float));
+        if (!ws->act[i])
+            goto fail;
+    }
+    ws->gram_scratch = malloc((size_t)widest * widest * sizeof(float));
+    ws->scratch = calloc((size_t)ws->threads, sizeof *ws->scratch);
+    if (!ws->gram_scratch || !ws->scratch)
+        goto fail;
+    for (int t = 0; t < ws->threads; t++)
+        if (!(ws->scratch[t] = malloc(scratch_floats * sizeof(float))))
+            goto fail;
+    ws->bytes += 2 * (size_t)ws->max_batch * largest * sizeof(float) +
+                 (size_t)widest * widest * sizeof(float) +
+                 (size_t)ws->threads * scratch_floats * sizeof(float);
+    if (ws->threads > 1) {
+        ws->tid = calloc((size_t)ws->threads, sizeof *ws->tid);
+        if (!ws->tid)
+            goto fail;
+        pthread_barrier_init(&ws->start, NULL, (unsigned)ws->threads);
+        pthread_barrier_init(&ws->done, NULL, (unsigned)ws->threads);
+        for (int t = 1; t < ws->threads; t++) {
+            worker_arg *a = malloc(sizeof *a);
+            if (!a)
+                abort(); /* a few bytes at setup: nothing sensible to fall back to */
+            a->ws = ws;
+            a->index = t;
+            if (pthread_create(&ws->tid[t], NULL, worker_main, a))
+                abort();
+        }
+    }
+    return ws;
+fail:
+    vgg_workspace_free(ws);
+    return NULL;
+}
+
+void vgg_workspace_free(vgg_workspace *ws)
+{
+    if (!ws)
+        return;
+    if (ws->tid) {
+        ws->quit = 1;
+        pthread_barrier_wait(&ws->start);
+        for (int t = 1; t < ws->threads; t++)
+            pthread_join(ws->tid[t], NULL);
+        pthread_barrier_destroy(&ws->start);
+        pthread_barrier_destroy(&ws->done);
+        free(ws->tid);
+    }
+    for (int l = 0; l < VGG_CONV_LAYERS; l++)
+        free(ws->U[l]);
+    free(ws->act[0]);
+    free(ws->act[1]);
+    free(ws->gram_scratch);
+    if (ws->scratch)
+        for (int t = 0; t < ws->threads; t++)
+            free(ws->scratch[t]);
+    free(ws->scratch);
+    free(ws);
+}
+
+size_t vgg_workspace_bytes(const vgg_workspace *ws)
+{
+    return ws->bytes;
+}
+
+static void conv_forward(vgg_workspace *ws, const conv_layer *L)
+{
+    ws->job = L;
+    ws->job_chunks = conv_chunk_count(L);
+    atomic_store(&ws->next_chunk, 0);
+    if (ws->threads > 1) {
+        pthread_barrier_wait(&ws->start);
+        run_chunks(ws, 0);
+        pthread_barrier_wait(&ws->done);
+    } else {
+        run_chunks(ws, 0);
+    }
+}
+
+void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out)
+{
+    const vgg19 *net = ws->net;
+    const size_t row = vgg19_descriptor_size(net);
+    size_t offsets[VGG_GRAM_LAYERS + 1];
+    vgg19_descriptor_offsets(net, offsets);
+    const float *x = in; /* current activations (n, C, s, s) */
+    int cur = 0;         /* which ping-pong buffer the next output goes to */
+    int s = VGG_INPUT_SIZE, block = 0;
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
+        const int C = net->cin[l], K = net->cout[l];
+        float *y = ws->act[cur];
+        conv_layer L = {.in = x, .out = y, .N = n, .C = C, .K = K, .H = s, .W = s,
+                        .winograd = ws->winograd[l], .U = ws->U[l], .weight = net->weight[l],
+                        .bias = net->bias[l], .chunk = ws->chunk[l]};
+        conv_forward(ws, &L);
+        const size_t count = (size_t)n * K * s * s;
+        if (l == block_last_conv[block]) {
+            if (ws->opt.post_relu)
+                relu_forward(y, count);
+            for (int i = 0; i < n; i++)
+                gram_upper_forward(out + (size_t)i * row + offsets[block],
+                                   y + (size_t)i * K * s * s, K, s * s, ws->gram_scratch);
+            if (!ws->opt.post_relu)
+                relu_forward(y, count);
+            if (block < 4) {
+                float *z = ws->act[cur ^ 1];
+                if (ws->opt.pool == VGG_POOL_AVG3)
+                    avgpool_forward(z, y, n, K, s, s, 3, 3);
+                else if (ws->opt.pool == VGG_POOL_AVG2)
+                    avgpool_forward(z, y, n, K, s, s, 2, 2);
+                else
+                    maxpool_forward(z, y, n, K, s, s, 2, 2);
+                s = layer_size(ws->opt.pool, l + 1);
+                x = z;
+                /* z is in buffer cur^1; the next conv writes to buffer cur. */
+            } else {
+                x = y;
+                cur ^= 1;
+            }
+            block++;
+        } else {
+            relu_forward(y, count);
+            x = y;
+            cur ^= 1;
+        }
+    }
+}
