@@ -39,6 +39,18 @@ BOTH = ("3.4", "4.3")
 N = 128  # pixels per side of a reference image
 
 
+# Which operands Blender shows for an operation (checked in Blender 4.3's UI); linking a
+# hidden socket is an error in our loader, so the helpers below leave them unlinked.
+MATH_UNARY = {"SQRT", "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "SIGN", "ROUND", "FLOOR", "CEIL",
+              "TRUNC", "FRACT", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",
+              "ARCTANGENT", "SINH", "COSH", "TANH", "RADIANS", "DEGREES"}
+MATH_TERNARY = {"MULTIPLY_ADD", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "WRAP"}
+VMATH_UNARY = {"LENGTH", "SCALE", "NORMALIZE", "ABSOLUTE", "FLOOR", "CEIL", "FRACTION", "SINE",
+               "COSINE", "TANGENT"}
+VMATH_TERNARY = {"MULTIPLY_ADD", "FACEFORWARD", "WRAP"}
+VMATH_SCALE = {"SCALE", "REFRACT"}
+
+
 def sweep(g, s, start, step):
     """Value start + i * step at pixel i of coordinate socket s (exact for step 2^-k)."""
     lo = start - 0.5 * step
@@ -70,6 +82,10 @@ class Case:
 
     def math(self, op, a, b=None, c=None, clamp=False):
         n = self.g.node("ShaderNodeMath", properties={"operation": op, "use_clamp": clamp})
+        if op in MATH_UNARY:
+            b = None
+        if op not in MATH_TERNARY:
+            c = None
         for sock, v in (("Value", a), ("Value_001", b), ("Value_002", c)):
             if v is not None:
                 self._set(n, sock, v)
@@ -77,6 +93,12 @@ class Case:
 
     def vmath(self, op, a, b=None, c=None, scale=None, out="Vector"):
         n = self.g.node("ShaderNodeVectorMath", properties={"operation": op})
+        if op in VMATH_UNARY:
+            b = None
+        if op not in VMATH_TERNARY:
+            c = None
+        if op not in VMATH_SCALE:
+            scale = None
         for sock, v in (("Vector", a), ("Vector_001", b), ("Vector_002", c), ("Scale", scale)):
             if v is not None:
                 self._set(n, sock, v)
