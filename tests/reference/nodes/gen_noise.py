@@ -36,7 +36,7 @@ from casekit import Graph, write_case  # noqa: E402
 from compat_noise import Blender3Unsupported, noise_node_for_blender3  # noqa: E402
 
 BOTH = ("3.4", "4.3")
-W_RANGE = (-10.0, 10.0)
+W_RANGE = (-7.3, 11.9)  # a non-power-of-two span: W is not dyadic either
 
 
 def versions_for(name, props, inputs, vector_linked, w_linked, socket):
@@ -66,10 +66,16 @@ def coords(g, mul_add):
     return (a, "Vector")
 
 
+# Pixel centres are dyadic fractions ((i + 0.5) / 128): scaled by a power of two, from
+# about the 8th octave on, they land on lattice points, where Perlin noise is 0, and
+# upper octaves would go untested. A non-dyadic remap gives every octave full mantissas.
+GENERIC_REMAP = ((1.37, 1.29, 1.0), (0.123, -0.217, 0.311))
+
+
 def noise_case(name, *, socket="Fac", noise_type="FBM", normalize=True, dims="3D",
-               remap=None, link_vector=True, note="", **inputs):
-    """One Noise Texture fed with snapped Generated coordinates (remap=(mul, add) applies
-    co * mul + add first); W, for 1D and 4D, runs over W_RANGE along the image's x."""
+               remap=GENERIC_REMAP, link_vector=True, note="", **inputs):
+    """One Noise Texture fed with snapped Generated coordinates, remapped as co * mul + add
+    (remap=(mul, add)); W, for 1D and 4D, runs over W_RANGE along the image's x."""
     g = Graph()
     props = {"noise_dimensions": dims, "noise_type": noise_type, "normalize": normalize}
     n = g.node("ShaderNodeTexNoise", inputs=inputs, properties=props)
