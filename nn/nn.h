@@ -158,6 +158,17 @@ void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out);
 int nn_npy_write_f32(const char *path, const float *data, size_t rows, size_t cols,
                      char *err, size_t errlen);
 
+/* The same, streamed: begin (creates the temporary file, writes the header), append rows,
+ * then commit (checks that exactly `rows` rows came, renames into place) or abort
+ * (removes the temporary file). begin returns NULL with a message on failure; commit and
+ * append return 0 or -1 with a message, and a failed commit has already cleaned up. */
+typedef struct nn_npy_writer nn_npy_writer;
+nn_npy_writer *nn_npy_begin(const char *path, size_t rows, size_t cols, char *err,
+                            size_t errlen);
+int nn_npy_append(nn_npy_writer *w, const float *data, size_t rows, char *err, size_t errlen);
+int nn_npy_commit(nn_npy_writer *w, char *err, size_t errlen);
+void nn_npy_abort(nn_npy_writer *w);
+
 #ifdef __cplusplus
 }
 #endif

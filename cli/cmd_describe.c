@@ -1,0 +1,229 @@
+/* imsynth describe: VGG19 Gram descriptors of images, one .npy row per image. */
+#include <cblas.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli/cli.h"
+#include "imageio/imageio.h"
+#include "nn/nn.h"
+
+/* The default network when no --weights is given (see vgg19_init_random). */
+enum { DEFAULT_SEED = 1 };
+
+static const char *const help =
+    "usage: imsynth describe IMAGE... -o OUT.npy [options]\n"
+    "\n"
+    "Computes the VGG19 Gram descriptor of each image (DESIGN.md, seed/facts-from-thesis-code.md)\n"
+    "and writes them as a float32 .npy array, one row per image in argument order.\n"
+    "Images are read as linear light (EXR as is; 8/16-bit files are sRGB-decoded unless\n"
+    "their metadata says linear). An image that is not 256x256 is first resized so that\n"
+    "its shorter side is 256 pixels, keeping its aspect (imageio's tent filter,\n"
+    "area-correct when shrinking); then the centre 224x224 is cropped, clamped to [0,1]\n"
+    "and ImageNet-normalised.\n"
+    "Gram layers in a row: conv1_2, conv2_2, conv3_4, conv4_4, conv5_4 (upper triangles\n"
+    "with diagonal); their offsets are printed on stdout.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output OUT.npy       output file (required)\n"
+    "  --weights F.safetensors    torchvision VGG19 weights (features.N.weight/bias);\n"
+    "                             default: He-normal random weights, seed 1\n"
+    "  --seed N                   seed of the random weights (default 1)\n"
+    "  --pool avg3|avg2|max2      pooling: avg3 = average 3x3 stride 3 (the thesis, default),\n"
+    "                             avg2 = average 2x2, max2 = VGG's max 2x2\n"
+    "  --post-relu                Gram after each tapped layer's ReLU (default: before)\n"
+    "  --precision fp32|fast      fp32 (default) or the fast path (see BENCHMARKS.md)\n"
+    "  --threads N                worker threads (default: online CPUs)\n"
+    "  --batch N                  images per forward pass (default 8)\n";
+
+static int parse_int(const char *sub, const char *opt, const char *s, long lo, long hi,
+                     long *v)
+{
+    char *end;
+    *v = strtol(s, &end, 10);
+    if (!*s || *end || *v < lo || *v > hi) {
+        cli_error(sub, "%s: expected an integer in [%ld, %ld], got \"%s\"", opt, lo, hi, s);
+        return -1;
+    }
+    return 0;
+}
+
+/* Read one image and write its preprocessed (3,224,224) tensor to out. */
+static int load_image(const char *sub, const char *path, float *out)
+{
+    char err[512];
+    image img = {0}, resized = {0};
+    if (image_read(path, &img, err, sizeof err)) {
+        cli_error(sub, "%s", err);
+        return -1;
+    }
+    const image *use = &img;
+    if (img.width != 256 || img.height != 256) {
+        int w, h;
+        if (img.width <= img.height) {
+            w = 256;
+            h = (int)((double)img.height * 256.0 / img.width + 0.5);
+        } else {
+            h = 256;
+            w = (int)((double)img.width * 256.0 / img.height + 0.5);
+        }
+        if (image_resize(&img, w < 256 ? 256 : w, h < 256 ? 256 : h, &resized)) {
+            cli_error(sub, "%s: out of memory resizing %dx%d", path, img.width, img.height);
+            image_free(&img);
+            return -1;
+        }
+        use = &resized;
+    }
+    int rc = vgg_preprocess(out, use->pixels, use->width, use->height, use->channels);
+    if (rc)
+        cli_error(sub, "%s: unsupported image (%dx%d, %d channels)", path, use->width,
+                  use->height, use->channels);
+    image_free(&img);
+    image_free(&resized);
+    return rc;
+}
+
+int cmd_describe(int argc, char **argv)
+{
+    const char *sub = "describe";
+    if (cli_wants_help(argc, argv)) {
+        fputs(help, stdout);
+        return EXIT_OK;
+    }
+    const char *out_path = NULL, *weights = NULL;
+    long seed = DEFAULT_SEED, threads = sysconf(_SC_NPROCESSORS_ONLN), batch = 8;
+    vgg_options opt = {.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32};
+    const char **inputs = calloc((size_t)argc, sizeof *inputs);
+    int n_inputs = 0, rc = EXIT_USAGE;
+    if (!inputs) {
+        cli_error(sub, "out of memory");
+        return EXIT_FAILURE_WORK;
+    }
+    int only_files = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (only_files || a[0] != '-' || !a[1]) {
+            inputs[n_inputs++] = a;
+            continue;
+        }
+        if (!strcmp(a, "--")) {
+            only_files = 1;
+            continue;
+        }
+        int takes = !strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--weights") ||
+                    !strcmp(a, "--seed") || !strcmp(a, "--pool") || !strcmp(a, "--precision") ||
+                    !strcmp(a, "--threads") || !strcmp(a, "--batch");
+        if (takes && i + 1 >= argc) {
+            cli_error(sub, "%s needs a value", a);
+            goto done;
+        }
+        if (!strcmp(a, "-o") || !strcmp(a, "--output"))
+            out_path = argv[++i];
+        else if (!strcmp(a, "--weights"))
+            weights = argv[++i];
+        else if (!strcmp(a, "--seed")) {
+            if (parse_int(sub, a, argv[++i], 0, INT32_MAX, &seed))
+                goto done;
+        } else if (!strcmp(a, "--pool")) {
+            int p = vgg_pool_parse(argv[++i]);
+            if (p < 0) {
+                cli_error(sub, "--pool: expected avg3, avg2 or max2, got \"%s\"", argv[i]);
+                goto done;
+            }
+            opt.pool = (vgg_pool)p;
+        } else if (!strcmp(a, "--precision")) {
+            int p = vgg_precision_parse(argv[++i]);
+            if (p < 0) {
+                cli_error(sub, "--precision: expected fp32 or fast, got \"%s\"", argv[i]);
+                goto done;
+            }
+            opt.precision = (vgg_precision)p;
+        } else if (!strcmp(a, "--threads")) {
+            if (parse_int(sub, a, argv[++i], 1, 256, &threads))
+                goto done;
+        } else if (!strcmp(a, "--batch")) {
+            if (parse_int(sub, a, argv[++i], 1, 256, &batch))
+                goto done;
+        } else if (!strcmp(a, "--post-relu"))
+            opt.post_relu = 1;
+        else {
+            cli_error(sub, "unknown option \"%s\"", a);
+            goto done;
+        }
+    }
+    if (!n_inputs || !out_path) {
+        cli_error(sub, "need at least one IMAGE and -o OUT.npy (see --help)");
+        goto done;
+    }
+    opt.threads = threads < 1 ? 1 : (int)threads;
+    /* Our workers each run single-threaded sgemms; OpenBLAS's own threads would only
+     * fight them for the same cores. */
+    if (opt.threads > 1)
+        openblas_set_num_threads(1);
+
+    rc = EXIT_FAILURE_WORK;
+    char err[1024];
+    vgg19 net;
+    if (weights) {
+        if (vgg19_load(&net, weights, err, sizeof err)) {
+            cli_error(sub, "%s", err);
+            goto done;
+        }
+    } else if (vgg19_init_random(&net, vgg19_standard_width, (uint64_t)seed)) {
+        cli_error(sub, "out of memory");
+        goto done;
+    }
+    if (batch > n_inputs)
+        batch = n_inputs;
+    size_t row = vgg19_descriptor_size(&net);
+    vgg_workspace *ws = vgg_workspace_create(&net, &opt, (int)batch);
+    float *in = malloc((size_t)batch * 3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE * sizeof(float));
+    float *desc = malloc((size_t)batch * row * sizeof(float));
+    nn_npy_writer *w = NULL;
+    if (!ws || !in || !desc) {
+        cli_error(sub, "out of memory");
+        goto cleanup;
+    }
+    w = nn_npy_begin(out_path, (size_t)n_inputs, row, err, sizeof err);
+    if (!w) {
+        cli_error(sub, "%s", err);
+        goto cleanup;
+    }
+    for (int first = 0; first < n_inputs; first += (int)batch) {
+        int n = n_inputs - first < batch ? n_inputs - first : (int)batch;
+        for (int k = 0; k < n; k++)
+            if (load_image(sub, inputs[first + k],
+                           in + (size_t)k * 3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE))
+                goto cleanup;
+        vgg_describe(ws, in, n, desc);
+        if (nn_npy_append(w, desc, (size_t)n, err, sizeof err)) {
+            cli_error(sub, "%s", err);
+            goto cleanup;
+        }
+    }
+    if (nn_npy_commit(w, err, sizeof err)) {
+        w = NULL;
+        cli_error(sub, "%s", err);
+        goto cleanup;
+    }
+    w = NULL;
+    size_t off[VGG_GRAM_LAYERS + 1];
+    vgg19_descriptor_offsets(&net, off);
+    static const char *const names[VGG_GRAM_LAYERS] = {"conv1_2", "conv2_2", "conv3_4",
+                                                       "conv4_4", "conv5_4"};
+    printf("%s: %d x %zu float32\n", out_path, n_inputs, row);
+    for (int l = 0; l < VGG_GRAM_LAYERS; l++)
+        printf("  %s  columns %zu..%zu\n", names[l], off[l], off[l + 1] - 1);
+    rc = EXIT_OK;
+cleanup:
+    nn_npy_abort(w);
+    vgg_workspace_free(ws);
+    free(in);
+    free(desc);
+    vgg19_free(&net);
+done:
+    free(inputs);
+    return rc;
+}
