@@ -18,6 +18,7 @@
  */
 #include <math.h>
 #include <stdbool.h>
+#include <string.h>
 
 #include "shadergraph/kernels/color_util.h"
 #include "shadergraph/kernels/kernel_util.h"
@@ -87,87 +88,159 @@ static inline float burn1(float t, float a, float b)
     return q > 1.0f ? 1.0f : q;
 }
 
-static float3 svm_mix(int blend, float t, float3 a, float3 b)
+/* One function per blend mode, as Cycles' svm_mix_* (kernel/svm/color_util.h). */
+static inline float3 blend_mix(float t, float3 a, float3 b) { return lerp3(a, b, t); }
+static inline float3 blend_add(float t, float3 a, float3 b) { return lerp3(a, f3_add(a, b), t); }
+static inline float3 blend_multiply(float t, float3 a, float3 b) { return lerp3(a, f3_mul(a, b), t); }
+static inline float3 blend_subtract(float t, float3 a, float3 b) { return lerp3(a, f3_sub(a, b), t); }
+
+static inline float3 blend_screen(float t, float3 a, float3 b)
 {
     float tm = 1.0f - t;
+    return make_float3(1.0f - (tm + t * (1.0f - b.x)) * (1.0f - a.x),
+                       1.0f - (tm + t * (1.0f - b.y)) * (1.0f - a.y),
+                       1.0f - (tm + t * (1.0f - b.z)) * (1.0f - a.z));
+}
+
+static inline float3 blend_overlay(float t, float3 a, float3 b)
+{
+    return make_float3(overlay1(t, a.x, b.x), overlay1(t, a.y, b.y), overlay1(t, a.z, b.z));
+}
+
+static inline float3 blend_divide(float t, float3 a, float3 b)
+{
+    return make_float3(divide1(t, a.x, b.x), divide1(t, a.y, b.y), divide1(t, a.z, b.z));
+}
+
+static inline float3 blend_difference(float t, float3 a, float3 b)
+{
+    return lerp3(a, make_float3(fabsf(a.x - b.x), fabsf(a.y - b.y), fabsf(a.z - b.z)), t);
+}
+
+/* Blender 4.x only; clamped below at 0. */
+static inline float3 blend_exclusion(float t, float3 a, float3 b)
+{
+    float3 e = make_float3(a.x + b.x - 2.0f * a.x * b.x, a.y + b.y - 2.0f * a.y * b.y,
+                           a.z + b.z - 2.0f * a.z * b.z);
+    float3 r = lerp3(a, e, t);
+    return make_float3(cy_maxf(r.x, 0.0f), cy_maxf(r.y, 0.0f), cy_maxf(r.z, 0.0f));
+}
+
+static inline float3 blend_darken(float t, float3 a, float3 b)
+{
+    return lerp3(a, make_float3(cy_minf(a.x, b.x), cy_minf(a.y, b.y), cy_minf(a.z, b.z)), t);
+}
+
+static inline float3 blend_lighten(float t, float3 a, float3 b)
+{
+    return lerp3(a, make_float3(cy_maxf(a.x, b.x), cy_maxf(a.y, b.y), cy_maxf(a.z, b.z)), t);
+}
+
+static inline float3 blend_dodge(float t, float3 a, float3 b)
+{
+    return make_float3(dodge1(t, a.x, b.x), dodge1(t, a.y, b.y), dodge1(t, a.z, b.z));
+}
+
+static inline float3 blend_burn(float t, float3 a, float3 b)
+{
+    return make_float3(burn1(t, a.x, b.x), burn1(t, a.y, b.y), burn1(t, a.z, b.z));
+}
+
+/* B's hue on A, only where B has a hue at all. */
+static inline float3 blend_hue(float t, float3 a, float3 b)
+{
+    float3 hsv_b = rgb_to_hsv(b);
+    if (hsv_b.y == 0.0f)
+        return a;
+    float3 hsv = rgb_to_hsv(a);
+    hsv.x = hsv_b.x;
+    return lerp3(a, hsv_to_rgb(hsv), t);
+}
+
+/* A's saturation towards B's; a grey A stays grey. Not an interpolation of colours. */
+static inline float3 blend_saturation(float t, float3 a, float3 b)
+{
+    float3 hsv = rgb_to_hsv(a);
+    if (hsv.y == 0.0f)
+        return a;
+    float3 hsv_b = rgb_to_hsv(b);
+    hsv.y = (1.0f - t) * hsv.y + t * hsv_b.y;
+    return hsv_to_rgb(hsv);
+}
+
+static inline float3 blend_value(float t, float3 a, float3 b)
+{
+    float3 hsv = rgb_to_hsv(a);
+    float3 hsv_b = rgb_to_hsv(b);
+    hsv.z = (1.0f - t) * hsv.z + t * hsv_b.z;
+    return hsv_to_rgb(hsv);
+}
+
+/* B's hue and saturation on A, where B has a hue. */
+static inline float3 blend_color(float t, float3 a, float3 b)
+{
+    float3 hsv_b = rgb_to_hsv(b);
+    if (hsv_b.y == 0.0f)
+        return a;
+    float3 hsv = rgb_to_hsv(a);
+    hsv.x = hsv_b.x;
+    hsv.y = hsv_b.y;
+    return lerp3(a, hsv_to_rgb(hsv), t);
+}
+
+static inline float3 blend_soft_light(float t, float3 a, float3 b)
+{
+    float3 one = make_float3(1.0f, 1.0f, 1.0f);
+    float3 screen = f3_sub(one, f3_mul(f3_sub(one, b), f3_sub(one, a)));
+    float3 soft = f3_add(f3_mul(f3_mul(f3_sub(one, a), b), a), f3_mul(a, screen));
+    return f3_add(f3_scale(a, 1.0f - t), f3_scale(soft, t));
+}
+
+static inline float3 blend_linear_light(float t, float3 a, float3 b)
+{
+    return make_float3(a.x + t * (2.0f * b.x + -1.0f), a.y + t * (2.0f * b.y + -1.0f),
+                       a.z + t * (2.0f * b.z + -1.0f));
+}
+
+/* out = blend(t, A, B) over a batch, t optionally clamped to [0, 1] first and the result
+ * optionally clamped after. The switch is outside the loops: one loop per mode. */
+static void blend_batch(int blend, int n, const float *fac, bool clamp_factor, const float *ca,
+                        const float *cb, bool clamp_result, float *out)
+{
+#define BLEND_LOOP(fn)                                                                     \
+    for (int i = 0; i < n; i++) {                                                          \
+        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];                           \
+        float3 r = fn(t, f3_load(ca, n, i), f3_load(cb, n, i));                            \
+        f3_store(out, n, i, clamp_result ? saturate3(r) : r);                              \
+    }                                                                                      \
+    break
+
     switch (blend) {
-    case BLEND_MIX:
-        return lerp3(a, b, t);
-    case BLEND_ADD:
-        return lerp3(a, f3_add(a, b), t);
-    case BLEND_MULTIPLY:
-        return lerp3(a, f3_mul(a, b), t);
-    case BLEND_SUBTRACT:
-        return lerp3(a, f3_sub(a, b), t);
-    case BLEND_SCREEN:
-        return make_float3(1.0f - (tm + t * (1.0f - b.x)) * (1.0f - a.x),
-                           1.0f - (tm + t * (1.0f - b.y)) * (1.0f - a.y),
-                           1.0f - (tm + t * (1.0f - b.z)) * (1.0f - a.z));
-    case BLEND_OVERLAY:
-        return make_float3(overlay1(t, a.x, b.x), overlay1(t, a.y, b.y), overlay1(t, a.z, b.z));
-    case BLEND_DIVIDE:
-        return make_float3(divide1(t, a.x, b.x), divide1(t, a.y, b.y), divide1(t, a.z, b.z));
-    case BLEND_DIFFERENCE:
-        return lerp3(a, make_float3(fabsf(a.x - b.x), fabsf(a.y - b.y), fabsf(a.z - b.z)), t);
-    case BLEND_EXCLUSION: {
-        float3 e = make_float3(a.x + b.x - 2.0f * a.x * b.x, a.y + b.y - 2.0f * a.y * b.y,
-                               a.z + b.z - 2.0f * a.z * b.z);
-        float3 r = lerp3(a, e, t);
-        return make_float3(cy_maxf(r.x, 0.0f), cy_maxf(r.y, 0.0f), cy_maxf(r.z, 0.0f));
-    }
-    case BLEND_DARKEN:
-        return lerp3(a, make_float3(cy_minf(a.x, b.x), cy_minf(a.y, b.y), cy_minf(a.z, b.z)), t);
-    case BLEND_LIGHTEN:
-        return lerp3(a, make_float3(cy_maxf(a.x, b.x), cy_maxf(a.y, b.y), cy_maxf(a.z, b.z)), t);
-    case BLEND_DODGE:
-        return make_float3(dodge1(t, a.x, b.x), dodge1(t, a.y, b.y), dodge1(t, a.z, b.z));
-    case BLEND_BURN:
-        return make_float3(burn1(t, a.x, b.x), burn1(t, a.y, b.y), burn1(t, a.z, b.z));
-    case BLEND_HUE: {
-        /* B's hue on A, only where B has a hue at all. */
-        float3 hsv_b = rgb_to_hsv(b);
-        if (hsv_b.y == 0.0f)
-            return a;
-        float3 hsv = rgb_to_hsv(a);
-        hsv.x = hsv_b.x;
-        return lerp3(a, hsv_to_rgb(hsv), t);
-    }
-    case BLEND_SATURATION: {
-        /* Interpolates A's saturation towards B's; grey A stays grey. */
-        float3 hsv = rgb_to_hsv(a);
-        if (hsv.y == 0.0f)
-            return a;
-        float3 hsv_b = rgb_to_hsv(b);
-        hsv.y = tm * hsv.y + t * hsv_b.y;
-        return hsv_to_rgb(hsv);
-    }
-    case BLEND_VALUE: {
-        float3 hsv = rgb_to_hsv(a);
-        float3 hsv_b = rgb_to_hsv(b);
-        hsv.z = tm * hsv.z + t * hsv_b.z;
-        return hsv_to_rgb(hsv);
-    }
-    case BLEND_COLOR: {
-        float3 hsv_b = rgb_to_hsv(b);
-        if (hsv_b.y == 0.0f)
-            return a;
-        float3 hsv = rgb_to_hsv(a);
-        hsv.x = hsv_b.x;
-        hsv.y = hsv_b.y;
-        return lerp3(a, hsv_to_rgb(hsv), t);
-    }
-    case BLEND_SOFT_LIGHT: {
-        float3 one = make_float3(1.0f, 1.0f, 1.0f);
-        float3 screen = f3_sub(one, f3_mul(f3_sub(one, b), f3_sub(one, a)));
-        float3 soft = f3_add(f3_mul(f3_mul(f3_sub(one, a), b), a), f3_mul(a, screen));
-        return f3_add(f3_scale(a, tm), f3_scale(soft, t));
-    }
-    case BLEND_LINEAR_LIGHT:
-        return make_float3(a.x + t * (2.0f * b.x + -1.0f), a.y + t * (2.0f * b.y + -1.0f),
-                           a.z + t * (2.0f * b.z + -1.0f));
+    case BLEND_MIX: BLEND_LOOP(blend_mix);
+    case BLEND_DARKEN: BLEND_LOOP(blend_darken);
+    case BLEND_MULTIPLY: BLEND_LOOP(blend_multiply);
+    case BLEND_BURN: BLEND_LOOP(blend_burn);
+    case BLEND_LIGHTEN: BLEND_LOOP(blend_lighten);
+    case BLEND_SCREEN: BLEND_LOOP(blend_screen);
+    case BLEND_DODGE: BLEND_LOOP(blend_dodge);
+    case BLEND_ADD: BLEND_LOOP(blend_add);
+    case BLEND_OVERLAY: BLEND_LOOP(blend_overlay);
+    case BLEND_SOFT_LIGHT: BLEND_LOOP(blend_soft_light);
+    case BLEND_LINEAR_LIGHT: BLEND_LOOP(blend_linear_light);
+    case BLEND_DIFFERENCE: BLEND_LOOP(blend_difference);
+    case BLEND_EXCLUSION: BLEND_LOOP(blend_exclusion);
+    case BLEND_SUBTRACT: BLEND_LOOP(blend_subtract);
+    case BLEND_DIVIDE: BLEND_LOOP(blend_divide);
+    case BLEND_HUE: BLEND_LOOP(blend_hue);
+    case BLEND_SATURATION: BLEND_LOOP(blend_saturation);
+    case BLEND_COLOR: BLEND_LOOP(blend_color);
+    case BLEND_VALUE: BLEND_LOOP(blend_value);
     default:
-        return make_float3(0.0f, 0.0f, 0.0f);
+        /* The loader only admits the values above; Cycles' fallback is black. */
+        memset(out, 0, sizeof(float) * 3 * (size_t)n);
+        break;
     }
+#undef BLEND_LOOP
 }
 
 /* ---- Mix (ShaderNodeMix) ---------------------------------------------------------- */
@@ -219,16 +292,9 @@ static void mix_vector(const sg_kernel_args *a, bool clamp_factor, bool non_unif
 static void mix_color(const sg_kernel_args *a, int blend, bool clamp_factor, bool clamp_result)
 {
     float *out = a->out[MIX_OUT_COLOR];
-    if (!out)
-        return;
-    const int n = a->n;
-    const float *fac = a->in[MIX_IN_FACTOR_FLOAT];
-    for (int i = 0; i < n; i++) {
-        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
-        float3 r = svm_mix(blend, t, f3_load(a->in[MIX_IN_A_COLOR], n, i),
-                           f3_load(a->in[MIX_IN_B_COLOR], n, i));
-        f3_store(out, n, i, clamp_result ? saturate3(r) : r);
-    }
+    if (out)
+        blend_batch(blend, a->n, a->in[MIX_IN_FACTOR_FLOAT], clamp_factor,
+                    a->in[MIX_IN_A_COLOR], a->in[MIX_IN_B_COLOR], clamp_result, out);
 }
 
 static void mix_kernel(const sg_kernel_args *a)
@@ -301,17 +367,9 @@ const sg_node_type node_type_mix = {
  * clamps the result. use_alpha is a compositor option that Cycles ignores. */
 static void mix_rgb_kernel(const sg_kernel_args *a)
 {
-    float *out = a->out[0];
-    if (!out)
-        return;
-    const int n = a->n;
-    const int blend = a->prop[0];
-    const bool clamp_result = a->prop[2] != 0;
-    for (int i = 0; i < n; i++) {
-        float t = cy_saturatef(a->in[0][i]);
-        float3 r = svm_mix(blend, t, f3_load(a->in[1], n, i), f3_load(a->in[2], n, i));
-        f3_store(out, n, i, clamp_result ? saturate3(r) : r);
-    }
+    if (a->out[0])
+        blend_batch(a->prop[0], a->n, a->in[0], true, a->in[1], a->in[2], a->prop[2] != 0,
+                    a->out[0]);
 }
 
 static const sg_socket_def mix_rgb_inputs[] = {

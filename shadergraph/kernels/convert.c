@@ -9,6 +9,8 @@
  * neither wrap hues nor clamp channels: out-of-range inputs give what Blender gives.
  */
 #include <math.h>
+#include <stdbool.h>
+#include <string.h>
 
 #include "shadergraph/kernels/color_util.h"
 #include "shadergraph/kernels/kernel_util.h"
@@ -101,21 +103,31 @@ static void combine_color_kernel(const sg_kernel_args *a)
 static void separate_color_kernel(const sg_kernel_args *a)
 {
     const int n = a->n;
-    const int mode = a->prop[0];
     float *const *out = a->out;
-    for (int i = 0; i < n; i++) {
-        float3 c = f3_load(a->in[0], n, i);
-        if (mode == COLOR_MODE_HSV)
-            c = rgb_to_hsv(c);
-        else if (mode == COLOR_MODE_HSL)
-            c = rgb_to_hsl(c);
-        if (out[0])
-            out[0][i] = c.x;
-        if (out[1])
-            out[1][i] = c.y;
-        if (out[2])
-            out[2][i] = c.z;
+#define SEPARATE_LOOP(convert)                                                             \
+    for (int i = 0; i < n; i++) {                                                          \
+        float3 c = convert(f3_load(a->in[0], n, i));                                       \
+        if (out[0])                                                                        \
+            out[0][i] = c.x;                                                               \
+        if (out[1])                                                                        \
+            out[1][i] = c.y;                                                               \
+        if (out[2])                                                                        \
+            out[2][i] = c.z;                                                               \
     }
+    switch (a->prop[0]) {
+    case COLOR_MODE_HSV:
+        SEPARATE_LOOP(rgb_to_hsv)
+        break;
+    case COLOR_MODE_HSL:
+        SEPARATE_LOOP(rgb_to_hsl)
+        break;
+    default:
+        for (int c = 0; c < 3; c++)
+            if (out[c])
+                memcpy(out[c], a->in[0] + (size_t)c * (size_t)n, (size_t)n * sizeof(float));
+        break;
+    }
+#undef SEPARATE_LOOP
 }
 
 static const sg_prop_def color_mode_props[] = {
@@ -207,36 +219,58 @@ static float3 safe_normalize3(float3 a)
     return len != 0.0f ? f3_scale(a, 1.0f / len) : a;
 }
 
-static float3 svm_mapping(int type, float3 v, float3 location, float3 rotation, float3 scale)
+static float3 svm_mapping(int type, const rotation3 *r, float3 v, float3 location, float3 scale)
 {
-    rotation3 r = euler_to_rotation(rotation);
     switch (type) {
     case MAPPING_POINT:
-        return f3_add(rotate(&r, f3_mul(v, scale)), location);
+        return f3_add(rotate(r, f3_mul(v, scale)), location);
     case MAPPING_TEXTURE:
-        return safe_divide3(rotate_inverse(&r, f3_sub(v, location)), scale);
+        return safe_divide3(rotate_inverse(r, f3_sub(v, location)), scale);
     case MAPPING_VECTOR:
-        return rotate(&r, f3_mul(v, scale));
+        return rotate(r, f3_mul(v, scale));
     case MAPPING_NORMAL:
-        return safe_normalize3(rotate(&r, safe_divide3(v, scale)));
+        return safe_normalize3(rotate(r, safe_divide3(v, scale)));
     default:
         return make_float3(0.0f, 0.0f, 0.0f);
     }
 }
 
+/* Whether all n values of a planar vector equal the first (bitwise, so -0 and NaN are
+ * not folded into a neighbour's value). */
+static bool vector_is_uniform(const float *v, int n)
+{
+    for (int c = 0; c < 3; c++) {
+        const float *p = v + (size_t)c * (size_t)n;
+        for (int i = 1; i < n; i++)
+            if (memcmp(&p[i], &p[0], sizeof(float)) != 0)
+                return false;
+    }
+    return true;
+}
+
 static void mapping_kernel(const sg_kernel_args *a)
 {
     float *out = a->out[0];
-    if (!out)
+    if (!out || a->n <= 0)
         return;
     const int n = a->n;
     const int type = a->prop[0];
+    const float *rot = a->in[2];
+    /* The rotation is nearly always a constant: then its matrix (six sines and cosines)
+     * is built once per batch rather than per point. Same bits either way. */
+    if (vector_is_uniform(rot, n)) {
+        rotation3 r = euler_to_rotation(f3_load(rot, n, 0));
+        for (int i = 0; i < n; i++)
+            f3_store(out, n, i,
+                     svm_mapping(type, &r, f3_load(a->in[0], n, i), f3_load(a->in[1], n, i),
+                                 f3_load(a->in[3], n, i)));
+        return;
+    }
     for (int i = 0; i < n; i++) {
-        float3 v = f3_load(a->in[0], n, i);
-        float3 location = f3_load(a->in[1], n, i);
-        float3 rotation = f3_load(a->in[2], n, i);
-        float3 scale = f3_load(a->in[3], n, i);
-        f3_store(out, n, i, svm_mapping(type, v, location, rotation, scale));
+        rotation3 r = euler_to_rotation(f3_load(rot, n, i));
+        f3_store(out, n, i,
+                 svm_mapping(type, &r, f3_load(a->in[0], n, i), f3_load(a->in[1], n, i),
+                             f3_load(a->in[3], n, i)));
     }
 }
 
