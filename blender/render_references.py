@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Render the converged Cycles references of tests/reference/render/<case>/.
+
+    python3 blender/render_references.py [CASE_DIR ...] [--versions 3.4,4.3]
+                                         [--samples 2048] [--threads 0]
+
+Each case directory holds graph.json (a material in our format). For each Blender
+version, two halves are rendered with different seeds, each with --samples samples
+(default 2048, so the reference has 4096): blender-<ver>-a.exr and blender-<ver>-b.exr
+(half float), with blender-<ver>-a.json / -b.json giving the Blender version, samples and
+render time. The reference is their mean; half their difference measures its own noise.
+Missing halves only are rendered, so the script resumes where it stopped: a half is
+written to a temporary name and renamed when complete.
+
+Blender 3.4 is `blender` on PATH; 4.3 runs in the Debian trixie chroot /srv/trixie
+(scripts/setup-oracles installs both). Renders run at nice 10. Plain python3.
+"""
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.join(REPO, "tests", "reference", "render")
+SCRIPTS = ("render_reference.py", "import_material.py", "compat_noise.py")
+CHROOT = "/srv/trixie"
+SEEDS = {"a": 1, "b": 2}
+
+
+def render_half(case, version, half, samples, threads):
+    out = os.path.join(case, "blender-%s-%s.exr" % (version, half))
+    timing = os.path.join(case, "blender-%s-%s.json" % (version, half))
+    if os.path.exists(out) and os.path.exists(timing):
+        return True
+    chroot = version != "3.4"
+    work = tempfile.mkdtemp(dir=os.path.join(CHROOT, "tmp") if chroot else None)
+    try:
+        for s in SCRIPTS:
+            shutil.copy(os.path.join(REPO, "blender", s), work)
+        shutil.copy(os.path.join(case, "graph.json"), work)
+        inside = (lambda p: p[len(CHROOT):]) if chroot else (lambda p: p)
+        cmd = ["blender", "-b", "--factory-startup", "-noaudio", "-P",
+               inside(os.path.join(work, "render_reference.py")), "--",
+               inside(os.path.join(work, "graph.json")), "--samples", str(samples),
+               "--seed", str(SEEDS[half]), "-o", inside(os.path.join(work, "out.exr")),
+               "--timing", inside(os.path.join(work, "out.json")), "--threads", str(threads)]
+        cmd = ["nice", "-n", "10"] + (["chroot", CHROOT] if chroot else []) + cmd
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0 or not os.path.exists(os.path.join(work, "out.exr")):
+            sys.stderr.write("%s %s %s: Blender failed:\n%s\n%s\n" % (
+                case, version, half, r.stdout[-2000:], r.stderr[-2000:]))
+            return False
+        shutil.move(os.path.join(work, "out.exr"), out + ".tmp")
+        os.replace(out + ".tmp", out)
+        shutil.move(os.path.join(work, "out.json"), timing + ".tmp")
+        os.replace(timing + ".tmp", timing)
+        print("%s: Blender %s half %s done" % (os.path.basename(case), version, half), flush=True)
+        return True
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("cases", nargs="*")
+    p.add_argument("--versions", default="3.4,4.3")
+    p.add_argument("--samples", type=int, default=2048)
+    p.add_argument("--threads", type=int, default=0)
+    a = p.parse_args()
+    cases = [os.path.abspath(c) for c in a.cases] or sorted(
+        os.path.join(ROOT, d) for d in os.listdir(ROOT)
+        if os.path.isfile(os.path.join(ROOT, d, "graph.json")))
+    ok = True
+    # Halves in an order that finishes whole references early: case, version, half.
+    for case in cases:
+        for version in a.versions.split(","):
+            for half in ("a", "b"):
+                ok &= render_half(case, version, half, a.samples, a.threads)
+    sys.exit(0 if ok else 1)
+
+
+if __name__ == "__main__":
+    main()
