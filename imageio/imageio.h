@@ -29,7 +29,21 @@ typedef struct image {
 int image_alloc(image *img, int width, int height, int channels);
 void image_free(image *img);
 
-/* Read any supported file. Returns 0, or -1 with a message in err. */
+/* Read any supported file (first subimage, full resolution). Returns 0, or -1 with a
+ * message in err; img is then zeroed (image_free is still safe).
+ *
+ * Colour: files stored as half, float or double (EXR, HDR, float TIFF) are taken as linear,
+ * as stored. Integer files (8/16-bit PNG, JPEG, TIFF, ...) are sRGB-decoded unless their
+ * metadata says they are linear: OIIO's "oiio:ColorSpace" is linear ("Linear", "linear",
+ * "scene_linear", "lin_srgb", "lin_rec709") or "oiio:Gamma" is 1.0 (e.g. a PNG gAMA of
+ * 1.0). Any other gamma is treated as sRGB. Alpha is never decoded, and never multiplied
+ * or divided: it comes out as stored (straight in PNG/TIFF, premultiplied in EXR).
+ *
+ * Channels: a 1-, 3- or 4-channel file keeps its count; 2 channels are grey + alpha and
+ * become RGBA (Y, Y, Y, A); more than 4 (extra EXR layers) keep R, G, B and A if the 4th
+ * channel is alpha, else R, G, B. Images larger than 32768 pixels on a side, deep and
+ * volume images are rejected, as are missing, empty, truncated or corrupt files and
+ * folders. Orientation metadata (EXIF) is not applied. */
 int image_read(const char *path, image *img, char *err, size_t errlen);
 
 typedef enum image_exr_pixel { IMAGE_EXR_HALF, IMAGE_EXR_FLOAT } image_exr_pixel;
@@ -38,12 +52,27 @@ typedef enum image_exr_pixel { IMAGE_EXR_HALF, IMAGE_EXR_FLOAT } image_exr_pixel
 int image_write_exr(const char *path, const image *img, image_exr_pixel pixel_type, char *err,
                     size_t errlen);
 
-/* 8-bit sRGB PNG (values clamped to [0,1], then sRGB-encoded). Returns 0 or -1. */
+/* image_write_exr plus string attributes in the header: meta is NULL or a NULL-terminated
+ * list of name, value pairs, e.g. {"imsynth:params", json, NULL}. Names must not be
+ * standard EXR attribute names. Returns 0 or -1. */
+int image_write_exr_meta(const char *path, const image *img, image_exr_pixel pixel_type,
+                         const char *const *meta, char *err, size_t errlen);
+
+/* Read string attribute name from the header of EXR file path into value (NUL-terminated;
+ * value may be NULL to test presence). Returns 0 when found, 1 when the file has no such
+ * attribute, -1 with a message in err (unreadable file, not a string, value too small). */
+int image_exr_get_string(const char *path, const char *name, char *value, size_t valuelen,
+                         char *err, size_t errlen);
+
+/* 8-bit sRGB PNG (values clamped to [0,1], then sRGB-encoded; alpha clamped but not
+ * encoded; NaN written as 0). Returns 0 or -1. */
 int image_write_png(const char *path, const image *img, char *err, size_t errlen);
 
 /* Resample to width x height with a separable triangle (tent) filter whose support
  * widens with the scale factor when shrinking (area-correct), bilinear when enlarging.
- * Returns 0 or -1 (out of memory). */
+ * Pixel centres map to pixel centres with the image edges aligned; taps outside the image
+ * are dropped and the weights renormalised. Returns 0, or -1 (out of memory, or an empty
+ * source or target size); dst is then zeroed. */
 int image_resize(const image *src, int width, int height, image *dst);
 
 /* sRGB transfer functions (IEC 61966-2-1), exact piecewise form. */

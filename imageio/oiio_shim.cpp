@@ -1,0 +1,192 @@
+/*
+ * The only C++ in imageio: a thin extern "C" layer over OpenImageIO 2.4.
+ *
+ * OIIO reports most failures through return values and geterror(), but the format
+ * libraries under it (OpenEXR, libtiff, ...) can throw, and so can std::string and
+ * allocation. Every entry point therefore catches everything and turns it into an error
+ * message: no exception ever crosses into C.
+ *
+ * OIIO keeps error messages per thread (global) and per ImageInput/ImageOutput; both are
+ * always retrieved, which also clears them, so a later call never sees a stale message.
+ */
+#include "imageio/oiio_shim.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cctype>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <string>
+
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+struct oiio_reader {
+    std::unique_ptr<ImageInput> input;
+};
+
+/* Copy msg into err as one line without trailing whitespace (OIIO messages often end in
+ * a newline and sometimes contain several lines). */
+static void set_error(char *err, size_t errlen, const std::string &msg)
+{
+    if (!err || errlen == 0)
+        return;
+    std::string line = msg;
+    for (char &c : line)
+        if (c == '\n' || c == '\r')
+            c = ' ';
+    while (!line.empty() && line.back() == ' ')
+        line.pop_back();
+    if (line.empty())
+        line = "unknown OpenImageIO error";
+    std::snprintf(err, errlen, "%s", line.c_str());
+}
+
+/* The most specific message available: the object's own, else OIIO's global one. */
+static std::string pending_errors(const std::string &own)
+{
+    std::string global = OIIO::geterror();
+    if (!own.empty())
+        return own;
+    return global;
+}
+
+static bool says_linear(const ImageSpec &spec)
+{
+    std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+    for (char &c : cs)
+        c = (char)std::tolower((unsigned char)c);
+    if (cs == "linear" || cs == "scene_linear" || cs == "lin_rec709" || cs == "lin_srgb")
+        return true;
+    float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);
+    return gamma == 1.0f;
+}
+
+extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
+                                         size_t errlen)
+{
+    try {
+        /* Keep PNG/TIFF alpha as stored: OIIO would otherwise premultiply colour by alpha
+         * in the file's (sRGB-encoded) space, which cannot be undone exactly. */
+        ImageSpec config;
+        config.attribute("oiio:UnassociatedAlpha", 1);
+        std::unique_ptr<ImageInput> input = ImageInput::open(path, &config);
+        if (!input) {
+            set_error(err, errlen, pending_errors(""));
+            return nullptr;
+        }
+        const ImageSpec &spec = input->spec();
+        std::memset(info, 0, sizeof *info);
+        info->width = spec.width;
+        info->height = spec.height;
+        info->depth = spec.depth;
+        info->channels = spec.nchannels;
+        info->alpha_channel = spec.alpha_channel;
+        TypeDesc::BASETYPE base = (TypeDesc::BASETYPE)spec.format.basetype;
+        info->is_float = base == TypeDesc::HALF || base == TypeDesc::FLOAT
+                         || base == TypeDesc::DOUBLE;
+        info->bits = (int)spec.format.size() * 8;
+        /* A file's own bit depth can be below its in-memory type (e.g. 12-bit TIFF). */
+        int stored_bits = spec.get_int_attribute("oiio:BitsPerSample", 0);
+        if (!info->is_float && stored_bits > 0 && stored_bits < info->bits)
+            info->bits = stored_bits;
+        info->is_deep = spec.deep ? 1 : 0;
+        info->metadata_linear = says_linear(spec) ? 1 : 0;
+        std::snprintf(info->format_name, sizeof info->format_name, "%s", input->format_name());
+        oiio_reader *reader = new oiio_reader;
+        reader->input = std::move(input);
+        return reader;
+    } catch (const std::exception &e) {
+        OIIO::geterror();
+        set_error(err, errlen, std::string("OpenImageIO exception: ") + e.what());
+    } catch (...) {
+        OIIO::geterror();
+        set_error(err, errlen, "unknown exception in OpenImageIO");
+    }
+    return nullptr;
+}
+
+extern "C" int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pixels,
+                                char *err, size_t errlen)
+{
+    try {
+        TypeDesc type = as_uint8 ? TypeDesc::UINT8 : TypeDesc::FLOAT;
+        bool ok = reader->input->read_image(0, 0, 0, nchannels, type, pixels);
+        /* A reader may succeed yet record an error (e.g. data past a truncation filled
+         * with zeros); treat any recorded error as failure. */
+        std::string own = reader->input->geterror();
+        std::string msg = pending_errors(own);
+        if (!ok || !own.empty()) {
+            set_error(err, errlen, msg.empty() ? std::string("read failed") : msg);
+            return -1;
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        OIIO::geterror();
+        set_error(err, errlen, std::string("OpenImageIO exception: ") + e.what());
+    } catch (...) {
+        OIIO::geterror();
+        set_error(err, errlen, "unknown exception in OpenImageIO");
+    }
+    return -1;
+}
+
+extern "C" void oiio_reader_close(oiio_reader *reader)
+{
+    if (!reader)
+        return;
+    try {
+        reader->input->close();
+        reader->input->geterror();
+        delete reader;
+    } catch (...) {
+        /* Nothing to report to; the reader's memory may leak but nothing crashes. */
+    }
+    OIIO::geterror();
+}
+
+extern "C" int oiio_write_png8(const char *path, int width, int height, int channels,
+                               const uint8_t *pixels, char *err, size_t errlen)
+{
+    try {
+        /* Created by format name, not by path: the caller's temporary file name does not
+         * end in .png. */
+        std::unique_ptr<ImageOutput> out = ImageOutput::create("png");
+        if (!out) {
+            set_error(err, errlen, pending_errors("no PNG writer in OpenImageIO"));
+            return -1;
+        }
+        ImageSpec spec(width, height, channels, TypeDesc::UINT8);
+        spec.attribute("oiio:ColorSpace", "sRGB");
+        if (channels == 4)
+            spec.alpha_channel = 3;
+        /* The pixels are already unassociated (straight) alpha: do not divide them. */
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+        if (!out->open(path, spec)) {
+            set_error(err, errlen, pending_errors(out->geterror()));
+            return -1;
+        }
+        bool ok = out->write_image(TypeDesc::UINT8, pixels);
+        std::string msg = out->geterror();
+        bool closed = out->close();
+        if (msg.empty())
+            msg = out->geterror();
+        msg = pending_errors(msg);
+        if (!ok || !closed || !msg.empty()) {
+            set_error(err, errlen, msg.empty() ? std::string("write failed") : msg);
+            return -1;
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        OIIO::geterror();
+        set_error(err, errlen, std::string("OpenImageIO exception: ") + e.what());
+    } catch (...) {
+        OIIO::geterror();
+        set_error(err, errlen, "unknown exception in OpenImageIO");
+    }
+    return -1;
+}

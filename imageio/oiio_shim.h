@@ -1,0 +1,53 @@
+/*
+ * Private to imageio: the C view of the few OpenImageIO calls imageio needs. The
+ * implementation (oiio_shim.cpp) is the only C++ in the library; it catches every
+ * exception, so these functions only ever fail by returning an error code and a message.
+ *
+ * Messages written to err do not name the file; the caller prefixes the path.
+ */
+#ifndef IMSYNTH_IMAGEIO_OIIO_SHIM_H
+#define IMSYNTH_IMAGEIO_OIIO_SHIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct oiio_reader oiio_reader;
+
+/* What a file says about itself, from its header (first subimage, top MIP level). */
+typedef struct oiio_image_info {
+    int width, height, depth; /* depth > 1: a volume, which imageio rejects */
+    int channels;
+    int alpha_channel;        /* index of the alpha channel, or -1 */
+    int is_float;             /* stored as half, float or double */
+    int bits;                 /* bits per channel value as stored (8, 16, 32, ...) */
+    int is_deep;
+    int metadata_linear;      /* oiio:ColorSpace says linear, or oiio:Gamma is 1 */
+    char format_name[32];     /* "png", "openexr", "jpeg", ... */
+} oiio_image_info;
+
+/* Open path and fill info. Returns a reader, or NULL with a message in err. The file's
+ * alpha is left as stored (PNG's unassociated alpha is not premultiplied on read). */
+oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
+                              size_t errlen);
+
+/* Read channels [0, nchannels) of the whole image into pixels, interleaved, top row first:
+ * as uint8_t when as_uint8 (only sensible for 8-bit files), else as float (integer formats
+ * scaled to [0,1]). Returns 0, or -1 with a message in err. */
+int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pixels, char *err,
+                     size_t errlen);
+
+void oiio_reader_close(oiio_reader *reader);
+
+/* Write an 8-bit PNG of width x height x channels (1, 3 or 4) bytes, tagged sRGB, to path
+ * exactly (no temporary file: the caller provides one). Returns 0, or -1 with a message. */
+int oiio_write_png8(const char *path, int width, int height, int channels, const uint8_t *pixels,
+                    char *err, size_t errlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
