@@ -23,6 +23,7 @@ Every error names the JSON file and the node (or group / link) at fault.
 
 import json
 import os
+import struct
 import sys
 
 import bpy
@@ -99,6 +100,30 @@ def _set_value(sock, value, source, where):
             sock.default_value = float(value)
     except (TypeError, ValueError) as e:
         _fail(source, where, "cannot set socket %r to %r (%s)" % (sock.identifier, value, e))
+    _check_stored(sock.default_value, value, source, where, "socket %r" % sock.identifier)
+
+
+def _f32(x):
+    return struct.unpack("f", struct.pack("f", float(x)))[0]
+
+
+def _check_stored(stored, wanted, source, where, what):
+    """Blender silently clamps values to a socket's hard range (colours to >= 0, Noise
+    Detail to <= 15, ...): a graph that needs a value Blender cannot hold would render
+    differently from what it says, so refuse it."""
+    got = list(stored) if hasattr(stored, "__len__") else [stored]
+    want = list(wanted) if isinstance(wanted, (list, tuple)) else [wanted] * len(got)
+    for k, (g, w) in enumerate(zip(got, want)):
+        if isinstance(g, bool) or isinstance(g, int):
+            w = bool(w) if isinstance(g, bool) else int(round(float(w)))
+            ok = g == w
+        else:
+            ok = _f32(g) == _f32(w)
+        if not ok:
+            _fail(source, where, "%s: Blender %s stores %r where the graph says %r (outside "
+                  "the socket's range); choose a value Blender can hold"
+                  % (what, bpy.app.version_string, tuple(got) if len(got) > 1 else got[0],
+                     wanted))
 
 
 def _new_interface_socket(tree, spec, in_out, major, source, where):
@@ -120,6 +145,7 @@ def _new_interface_socket(tree, spec, in_out, major, source, where):
             if len(d) == 3 and len(cur) == 4:
                 d = d + [1.0]
         s.default_value = d
+        _check_stored(s.default_value, d, source, where, "default of %r" % name)
     if "min" in spec and hasattr(s, "min_value"):
         s.min_value = spec["min"]
     if "max" in spec and hasattr(s, "max_value"):

@@ -2,7 +2,7 @@
 """Render the missing node references: blender-<version>.exr in each case directory.
 
     python3 blender/render_node_references.py [CASE_DIR ...] [--versions 3.4,4.3]
-                                              [--force] [--batch N]
+                                              [--force] [--check] [--batch N]
 
 Without CASE_DIRs, every directory under tests/reference/nodes holding a case.json.
 For each Blender version a case lists (case.json "versions") whose EXR is missing (or all,
@@ -69,7 +69,7 @@ def blender_command(version, script, jobs):
     return ["nice", "-n", "5", "chroot", CHROOT] + base
 
 
-def run_batch(version, cases, verbose):
+def run_batch(version, cases, verbose, check_only=False):
     """Render one batch in one Blender; returns a list of (case_dir, error)."""
     in_chroot = version != "3.4"
     tmp_parent = os.path.join(CHROOT, "tmp") if in_chroot else None
@@ -95,7 +95,8 @@ def run_batch(version, cases, verbose):
         results = os.path.join(tmp, "results.json")
         jobs_path = os.path.join(tmp, "jobs.json")
         with open(jobs_path, "w") as f:
-            json.dump({"jobs": jobs, "results": inside(results)}, f, indent=1)
+            json.dump({"jobs": jobs, "results": inside(results), "check_only": check_only},
+                      f, indent=1)
         cmd = blender_command(version, inside(os.path.join(sdir, "render_socket.py")),
                               inside(jobs_path))
         p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -121,7 +122,11 @@ def run_batch(version, cases, verbose):
         failed = []
         for (d, c), job, out in zip(cases, jobs, outs):
             if job["graph"] in errors:
-                failed.append((d, errors[job["graph"]]))
+                # Name the case's own graph.json, not its temporary copy.
+                failed.append((d, errors[job["graph"]].replace(
+                    job["graph"], os.path.relpath(os.path.join(d, "graph.json"), REPO))))
+                continue
+            if check_only:
                 continue
             if not os.path.exists(out):
                 failed.append((d, "no image written"))
@@ -142,6 +147,8 @@ def main():
     ap.add_argument("--versions", default=",".join(ALL_VERSIONS),
                     help="comma-separated Blender versions to render (default 3.4,4.3)")
     ap.add_argument("--force", action="store_true", help="re-render existing references")
+    ap.add_argument("--check", action="store_true",
+                    help="only build every case's material in each Blender (render nothing)")
     ap.add_argument("--batch", type=int, default=150, help="cases per Blender start-up")
     ap.add_argument("-v", "--verbose", action="store_true", help="print Blender's output")
     a = ap.parse_args()
@@ -154,10 +161,12 @@ def main():
     failures = []
     for v in versions:
         todo = [(d, c) for d, c in cases if v in c["versions"] and
-                (a.force or not os.path.exists(os.path.join(d, "blender-%s.exr" % v)))]
-        print("Blender %s: %d case(s) to render" % (v, len(todo)), flush=True)
+                (a.force or a.check or not os.path.exists(os.path.join(d, "blender-%s.exr" % v)))]
+        print("Blender %s: %d case(s) to %s" % (v, len(todo), "check" if a.check else "render"),
+              flush=True)
         for i in range(0, len(todo), max(1, a.batch)):
-            failures += [(v, d, e) for d, e in run_batch(v, todo[i:i + a.batch], a.verbose)]
+            failures += [(v, d, e) for d, e in run_batch(v, todo[i:i + a.batch], a.verbose,
+                                                         a.check)]
     for v, d, e in failures:
         print("FAILED %s (Blender %s): %s" % (os.path.relpath(d, REPO), v, e.strip()),
               file=sys.stderr)

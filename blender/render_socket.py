@@ -4,7 +4,8 @@
 
 jobs.json: {"jobs": [{"graph": ".../graph.json", "socket": "NODE:SOCKET",
                       "out": ".../blender-3.4.exr"}, ...],
-            "results": ".../results.json"}            (optional: where to report failures)
+            "results": ".../results.json",            (optional: where to report failures)
+            "check_only": false}                      (true: build, do not render)
 
 For each job: build the material (import_material.build_material), feed the socket's value
 into an Emission shader (strength 1) wired to the Material Output, and render the scene's
@@ -14,7 +15,9 @@ the socket's value at (within 0.005 px of) the pixel centre; casekit's graphs sn
 coordinates so that offset does not matter.
 
 The socket is looked up as sg_compile does: an output socket of the node with that
-identifier, else an input socket (its link's source, or its unlinked value). A float
+identifier, else an input socket (its link's source, or its unlinked value; an unlinked
+input without a value of its own, such as Normal or a texture's Vector, reads what Cycles
+uses instead: the shading normal, Generated coordinates). A float
 socket arrives as (v, v, v), a vector as (x, y, z), a colour as (r, g, b).
 
 What Cycles writes, measured in 3.4 and 4.3 (see the project report / casekit cases):
@@ -98,12 +101,31 @@ def _socket_value_source(mat, ref, source):
         raise im.ImportError_("%s: socket %r is a shader socket" % (source, ref))
     if inp.is_linked:
         return inp.links[0].from_socket, None
+    if inp.hide_value:
+        return _implicit_source(tree, node, inp, source, ref), None
     v = inp.default_value
     if hasattr(v, "__len__"):
         v = list(v)[:3]
     else:
         v = [float(v)] * 3
     return None, v
+
+
+def _implicit_source(tree, node, inp, source, ref):
+    """The value Cycles uses for an unlinked input that has no value of its own
+    (hide_value): the shading normal for normal inputs, Generated coordinates for a
+    texture's Vector (what shadergraph's SG_IMPLICIT_NORMAL / SG_IMPLICIT_GENERATED mean).
+    Blender's default_value of such a socket is meaningless (0, 0, 0)."""
+    if inp.type == "VECTOR" and "Normal" in inp.name:
+        geo = tree.nodes.new("ShaderNodeNewGeometry")
+        geo.name = "imsynth implicit Normal"
+        return geo.outputs["Normal"]
+    if inp.type == "VECTOR" and inp.name == "Vector" and node.bl_idname.startswith("ShaderNodeTex"):
+        tc = tree.nodes.new("ShaderNodeTexCoord")
+        tc.name = "imsynth implicit Generated"
+        return tc.outputs["Generated"]
+    raise im.ImportError_("%s: socket %r: unlinked input without a value of its own, and "
+                          "no rule for what Cycles uses there" % (source, ref))
 
 
 def wire_emission(mat, ref, source):
@@ -131,12 +153,14 @@ def wire_emission(mat, ref, source):
     tree.links.new(em.outputs["Emission"], out.inputs["Surface"])
 
 
-def render_job(scene, plane, job):
+def render_job(scene, plane, job, check_only=False):
     source = job["graph"]
     clear_data()
     data = im.load_json(source)
     mat = im.build_material(data, im.blender_major(), source=source)
     wire_emission(mat, job["socket"], source)
+    if check_only:
+        return
     plane.data.materials.clear()
     plane.data.materials.append(mat)
     out = job["out"]
@@ -159,7 +183,7 @@ def main(argv):
     failures = []
     for job in spec["jobs"]:
         try:
-            render_job(scene, plane, job)
+            render_job(scene, plane, job, spec.get("check_only", False))
             print("render_socket: ok %s -> %s" % (job["socket"], job["out"]), flush=True)
         except Exception as e:  # one bad case must not stop the batch
             msg = str(e) if isinstance(e, im.ImportError_) else traceback.format_exc()
