@@ -11,9 +11,9 @@ zero) and 1; Minkowski exponents 0, 0.05 and 32; Blender 4.x's octaves (Detail 0
 and 15, Roughness 0 and 1, Normalize on and off, fractional Detail) for the fractal
 features; huge, negative and zero scales and negative coordinates; and 1D, 2D and 4D.
 
-Versions. 3.4's Voronoi has no Detail / Roughness / Lacunarity / Normalize: cases that
-set them are rendered in 4.3 only, except the `voronoi_3x_ignores_detail` case, which
-sets Detail in both versions to check that 3.x mode ignores it as 3.4 does.
+Versions. 3.4's Voronoi has no Detail / Roughness / Lacunarity / Normalize, and the
+importer does not drop them for 3.x, so cases that set them are rendered in 4.3 only;
+that 3.x mode ignores them is checked by tests/unit/test_voronoi.c.
 
 Tolerance. Cells are chosen by comparing distances, so at cell borders a last-bit
 difference can pick the other cell: Color, Position, W and Radius jump there, and F1/F2
@@ -21,10 +21,10 @@ distances of the fractal sum jump through their colour / position. Cases whose s
 is discontinuous allow 0.1% of pixels past the tolerance (max_bad_fraction 0.001, said
 so in their note); continuous ones (distances, smooth F1, distance to edge) allow none.
 
-Non-finite and huge values: 4.3 starts its searches at FLT_MAX, and a Minkowski
-exponent of 0 makes every distance inf, so 4.3's Distance is FLT_MAX, which Cycles'
-film does not pass through (it writes 0). That case compares Color and Position in
-4.3 and Distance only in 3.4, where the search starts at 8.
+Huge values: 4.3 starts its searches at FLT_MAX, and a Minkowski exponent of 0 makes
+every distance inf, so 4.3's Distance is FLT_MAX; as a grey sample its |R|+|G|+|B|
+overflows and Cycles' film writes 0 (test_blender_nodes applies the same rule). 3.4's
+search starts at 8 and returns 8.
 """
 import os
 import sys
@@ -114,9 +114,8 @@ def main():
 
     # Minkowski exponent extremes.
     voronoi_case("minkowski_e0_distance", metric="MINKOWSKI", Exponent=0.0, Scale=6.0,
-                 versions=("3.4",),
-                 note="Exponent 0: every distance is inf; 3.4's search from 8 never moves "
-                      "(4.3 gives FLT_MAX, which its film drops: not comparable).")
+                 note="Exponent 0: every distance is inf, no point is found: 3.4 returns its "
+                      "start distance 8, 4.3 FLT_MAX (the film turns that grey pixel to 0).")
     for socket in ("Color", "Position"):
         voronoi_case(f"minkowski_e0_{socket.lower()}", socket=socket, metric="MINKOWSKI",
                      Exponent=0.0, Scale=6.0,
@@ -179,10 +178,6 @@ def main():
                  Scale=4.0, note="4.x octaves: positions blended by amplitude.")
     voronoi_case("f1_detail15_rough1_color", versions=V4, socket="Color", Detail=15.0,
                  Roughness=1.0, Scale=4.0, note="16 equal octaves of colour.")
-    voronoi_case("3x_ignores_detail", versions=BOTH, normalize=True, Detail=3.5,
-                 Roughness=0.7, Lacunarity=2.5, Scale=4.0,
-                 note="Detail/Roughness/Lacunarity/Normalize set: 4.3 uses them, 3.4 has no "
-                      "such sockets (3.x mode must ignore them).")
 
     # Other dimensions.
     W = (-3.0, 5.0)
