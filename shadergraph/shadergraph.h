@@ -168,6 +168,61 @@ int sg_graph_node_count(const sg_graph *g);
 void sg_plane_geometry(int width, int height, int first, int n, float *storage,
                        sg_geometry_batch *geom);
 
+/* ---- parameters (params.c) --------------------------------------------------------- */
+
+/* A super-shader reads its parameters from one group, SG_PARAMS_GROUP: a group with no
+ * inputs whose outputs are the parameters, each fed by a Value node (the parameter's
+ * value) inside the group. Binding a parameter set means setting those Value nodes
+ * (and the matching interface defaults), so the evaluator, a saved graph and Blender
+ * all see the same values. Parameters are floats in [0, 1]; a name "Mult N ..." marks
+ * an N-way multiplexer selector (DESIGN.md). */
+#define SG_PARAMS_GROUP "RandomValues"
+
+typedef struct sg_params {
+    int n;
+    char **names;  /* in the group's output order (the sampling order) */
+    float *values; /* n values in [0, 1] */
+} sg_params;
+
+/* The parameters of g (names and current values) from its SG_PARAMS_GROUP group.
+ * Errors when the group is missing, has inputs, or an output is not fed by a Value
+ * node. On success the caller frees with sg_params_free. */
+int sg_params_from_graph(const sg_graph *g, sg_params *out, sg_error *err);
+/* A deep copy (names and values); returns -1 when out of memory. */
+int sg_params_copy(const sg_params *src, sg_params *dst);
+void sg_params_free(sg_params *p);
+/* Index of the parameter named `name`, or -1. */
+int sg_params_index(const sg_params *p, const char *name);
+
+/* N for a name "Mult N ..." (N >= 2), else 0. */
+int sg_param_mult_choices(const char *name);
+
+/* Frame `frame`'s parameter set, the thesis's convention with our own generator: the
+ * generator is seeded with the frame number, each parameter in order draws u uniform in
+ * [0, 1), u is rounded to 3 decimals, and "Mult N" selectors are moved to the centre of
+ * their bin, min((floor(u*N) + 0.5) / N, 1). The generator is SplitMix64 (documented in
+ * params.c), not Python's Mersenne Twister, so values differ from the thesis's frames.
+ * Overwrites p->values (the names give the count and which are selectors). */
+void sg_params_sample(sg_params *p, unsigned long long frame);
+
+/* Parameter files: one JSON object keyed by parameter name, values in [0, 1]:
+ *   {"Noise A Scale": 0.25, "Mult 9 Noise A Pattern": 0.056, ...}
+ * Reading fills p->values for the names already in p (from the graph); a missing,
+ * unknown, duplicated, non-number, non-finite or out-of-range entry is an error naming
+ * the file and the parameter. On error p->values is left unchanged. */
+int sg_params_read_file(const char *path, sg_params *p, sg_error *err);
+int sg_params_read_json(const char *text, size_t len, const char *source_name, sg_params *p,
+                        sg_error *err);
+/* JSON text in the same format, in p's order (caller frees with free()); floats are
+ * written with 9 significant digits so they read back bit for bit. */
+char *sg_params_to_json(const sg_params *p);
+/* Write atomically (temp file in the same directory, then rename). */
+int sg_params_write_file(const char *path, const sg_params *p, sg_error *err);
+
+/* Set g's parameters to p's values (matched by name: every parameter of g must be in p
+ * and every entry of p must be a parameter of g; values in [0, 1]). */
+int sg_graph_bind_params(sg_graph *g, const sg_params *p, sg_error *err);
+
 #ifdef __cplusplus
 }
 #endif
