@@ -23,11 +23,20 @@
  * ...) is listed in compat_noise.py; the kernel still returns 3.4's value for the
  * translated node (Color = Fac on a Musgrave), and the compiler is expected to reject
  * such nodes in 3.x mode.
+ *
+ * Speed. A point's fractal octaves (and Color's two extra fractals) are independent
+ * Perlin evaluations at points known in advance, so each point first lays out all its
+ * octave points, has their noise computed eight points to an AVX vector (3D), and then
+ * combines the values serially in Cycles' order. Lanes do exactly the scalar operations,
+ * so results are the same bits as one point at a time.
  */
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
+#if defined(__FMA__) && defined(__AVX__)
+#include <immintrin.h>
+#endif
 
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
@@ -342,52 +351,188 @@ static float perlin_4d_v3(npoint p)
     return finite_or_zero(perlin_4d(p.x, p.y, p.z, p.w, true));
 }
 
+/* ---- Perlin noise of eight points at once (3D) ------------------------------------
+ *
+ * A fractal's octaves are independent evaluations at known points (the coordinates are
+ * scaled serially, the values combined afterwards), so their Perlin noise is computed
+ * eight points to a vector. Each lane performs exactly the scalar operations above. */
+
+typedef int32_t i32x8 __attribute__((vector_size(32)));
+
+static inline f32x8 splat8(float v) { return (f32x8){0} + v; }
+
+static inline f32x8 fma8(f32x8 a, f32x8 b, f32x8 c)
+{
+#if defined(__FMA__) && defined(__AVX__)
+    return (f32x8)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
+#else
+    f32x8 r;
+    for (int k = 0; k < 8; k++)
+        r[k] = fmaf(a[k], b[k], c[k]);
+    return r;
+#endif
+}
+
+/* floor_frac of each lane (see there): conversions are clamped into range first, and
+ * selections are masks, so no lane has undefined behaviour. */
+static inline f32x8 floor_frac8(f32x8 x, u32x8 *cell)
+{
+    const f32x8 two23 = splat8(8388608.0f);
+    f32x8 xc = select8((u32x8)(x >= -two23), x, -two23);
+    xc = select8((u32x8)(xc > two23), two23, xc);
+    f32x8 t = __builtin_convertvector(__builtin_convertvector(xc, i32x8), f32x8);
+    f32x8 fl = t + __builtin_convertvector((i32x8)(t > xc), f32x8); /* -1 where t > xc */
+    f32x8 ax = (f32x8)((u32x8)x & 0x7fffffffu);
+    f32x8 f = select8((u32x8)(ax < two23), fl, x);
+    f32x8 fc = select8((u32x8)(f >= splat8(-2147483648.0f)), f, splat8(-2147483648.0f));
+    fc = select8((u32x8)(fc > splat8(2147483520.0f)), splat8(2147483520.0f), fc);
+    u32x8 k = (u32x8)__builtin_convertvector(fc, i32x8);
+    u32x8 above = (u32x8)(f >= splat8(2147483648.0f));
+    *cell = (k & ~above) | (0x80000000u & above);
+    return x - f;
+}
+
+static inline f32x8 fade8(f32x8 t)
+{
+    f32x8 b = fma8(t, fma8(t, splat8(6.0f), splat8(-15.0f)), splat8(10.0f));
+    return (t * t) * (t * b);
+}
+
+static inline f32x8 simd_mix8(f32x8 a, f32x8 b, f32x8 t, bool b3)
+{
+    return b3 ? fma8(t, b, (splat8(1.0f) - t) * a) : fma8(t, b - a, a);
+}
+
+NOISE_INLINE f32x8 perlin_3d_x8(f32x8 x, f32x8 y, f32x8 z, bool b3)
+{
+    u32x8 X, Y, Z;
+    f32x8 fx = floor_frac8(x, &X), fy = floor_frac8(y, &Y), fz = floor_frac8(z, &Z);
+    f32x8 u = fade8(fx), v = fade8(fy), w = fade8(fz);
+    f32x8 fx1 = fx - 1.0f, fy1 = fy - 1.0f, fz1 = fz - 1.0f;
+    f32x8 g[8];
+    for (uint32_t c = 0; c < 8; c++) {
+        uint32_t dx = c >> 2, dy = (c >> 1) & 1u, dz = c & 1u;
+        g[c] = grad3_x8(hash_uint3_x8(X + dx, Y + dy, Z + dz), dx ? fx1 : fx, dy ? fy1 : fy,
+                        dz ? fz1 : fz);
+    }
+    f32x8 s00 = simd_mix8(g[0], g[4], u, b3), s01 = simd_mix8(g[1], g[5], u, b3);
+    f32x8 s10 = simd_mix8(g[2], g[6], u, b3), s11 = simd_mix8(g[3], g[7], u, b3);
+    return simd_mix8(simd_mix8(s00, s10, v, b3), simd_mix8(s01, s11, v, b3), w, b3);
+}
+
+/* Perlin noise of `count` 3D points, eight at a time (the last group padded with copies
+ * of its first point). A group of fewer than 4 points costs less one point at a time
+ * (whose corners are vectorized instead). */
+NOISE_INLINE void perlin_3d_many(const npoint *pts, int count, float *out, bool b3)
+{
+    for (int first = 0; first < count; first += 8) {
+        if (count - first < 4) {
+            for (int i = first; i < count; i++)
+                out[i] = b3 ? perlin_3d_v3(pts[i]) : perlin_3d_v4(pts[i]);
+            break;
+        }
+        f32x8 x, y, z;
+        for (int k = 0; k < 8; k++) {
+            npoint q = pts[first + k < count ? first + k : first];
+            x[k] = b3 ? q.x : wrap_coordinate(q.x);
+            y[k] = b3 ? q.y : wrap_coordinate(q.y);
+            z[k] = b3 ? q.z : wrap_coordinate(q.z);
+        }
+        f32x8 r = perlin_3d_x8(x, y, z, b3);
+        for (int k = 0; k < 8 && first + k < count; k++)
+            out[first + k] = b3 ? finite_or_zero(r[k]) : r[k];
+    }
+}
+
+static void perlin_3d_many_v4(const npoint *pts, int count, float *out)
+{
+    perlin_3d_many(pts, count, out, false);
+}
+static void perlin_3d_many_v3(const npoint *pts, int count, float *out)
+{
+    perlin_3d_many(pts, count, out, true);
+}
+
+/* The other dimensions, one point at a time. */
+#define PERLIN_MANY(name, one)                                                             \
+    static void name(const npoint *pts, int count, float *out)                             \
+    {                                                                                      \
+        for (int i = 0; i < count; i++)                                                    \
+            out[i] = one(pts[i]);                                                          \
+    }
+PERLIN_MANY(perlin_1d_many_v4, perlin_1d_v4)
+PERLIN_MANY(perlin_2d_many_v4, perlin_2d_v4)
+PERLIN_MANY(perlin_4d_many_v4, perlin_4d_v4)
+PERLIN_MANY(perlin_1d_many_v3, perlin_1d_v3)
+PERLIN_MANY(perlin_2d_many_v3, perlin_2d_v3)
+PERLIN_MANY(perlin_4d_many_v3, perlin_4d_v3)
+#undef PERLIN_MANY
+
 /* How a noise evaluation is done: dimensions and Blender version. Constant per node. */
 typedef struct noise_mode {
     int dims;
     bool blender3;
-    float (*perlin)(npoint p);
+    /* Unscaled Perlin noise of `count` points. */
+    void (*perlin_many)(const npoint *pts, int count, float *out);
     float scale; /* Cycles' noise_scale1..4: maps Perlin noise to about [-1, 1] */
 } noise_mode;
 
 static noise_mode noise_mode_for(int dims, bool blender3)
 {
-    static float (*const perlin_v4[4])(npoint) = {perlin_1d_v4, perlin_2d_v4, perlin_3d_v4,
-                                                  perlin_4d_v4};
-    static float (*const perlin_v3[4])(npoint) = {perlin_1d_v3, perlin_2d_v3, perlin_3d_v3,
-                                                  perlin_4d_v3};
+    static void (*const many_v4[4])(const npoint *, int, float *) = {
+        perlin_1d_many_v4, perlin_2d_many_v4, perlin_3d_many_v4, perlin_4d_many_v4};
+    static void (*const many_v3[4])(const npoint *, int, float *) = {
+        perlin_1d_many_v3, perlin_2d_many_v3, perlin_3d_many_v3, perlin_4d_many_v3};
     static const float scales[4] = {0.2500f, 0.6616f, 0.9820f, 0.8344f};
-    noise_mode m = {dims, blender3, blender3 ? perlin_v3[dims] : perlin_v4[dims],
-                    scales[dims]};
+    noise_mode m = {dims, blender3, blender3 ? many_v3[dims] : many_v4[dims], scales[dims]};
     return m;
 }
 
-static inline float snoise(const noise_mode *m, npoint p) { return m->scale * m->perlin(p); }
+/* ---- fractals ---------------------------------------------------------------------
+ *
+ * Each fractal first lays out its octaves' points exactly as Cycles steps them, has their
+ * Perlin noise computed together (noise_mode.perlin_many), then combines the values in
+ * Cycles' order. Octaves Cycles would skip (the hybrid's early exit) may be computed and
+ * left unused. */
 
-/* snoise(p) + offset: the scaling product fuses into the sum. */
-static inline float snoise_plus(const noise_mode *m, npoint p, float offset)
+/* 4.x: Detail <= 15, so at most 16 octaves and a fractional one; 3.x: at most 16. */
+#define MAX_OCTAVES 17
+
+/* p, p * lacunarity, (p * lacunarity) * lacunarity, ...: Cycles' `p *= lacunarity`. */
+static void octave_points(npoint p, float lacunarity, int count, npoint *pts)
 {
-    return madd(m->scale, m->perlin(p), offset);
+    for (int i = 0; i < count; i++) {
+        pts[i] = p;
+        p = np_scale(p, lacunarity);
+    }
 }
 
-/* ---- Blender 4.x fractals (fractal_noise.h) -------------------------------------- */
+/* fscale * p with fscale = 1, f, f * f, ...: Cycles' fBM loops. */
+static void scaled_points(npoint p, float factor, int count, npoint *pts)
+{
+    float fscale = 1.0f;
+    for (int i = 0; i < count; i++) {
+        pts[i] = np_scale(p, fscale);
+        fscale *= factor;
+    }
+}
 
-static float fbm4(const noise_mode *m, npoint p, float detail, float roughness, float lacunarity,
+/* ---- Blender 4.x (fractal_noise.h) ------------------------------------------------ */
+
+static float fbm4(const noise_mode *m, const float *t, float detail, float roughness, float lacunarity,
                   bool normalize)
 {
-    float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
     int n = (int)detail;
+    float rmd = detail - floorf(detail);
+
+    float amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
     for (int i = 0; i <= n; i++) {
-        float t = snoise(m, np_scale(p, fscale));
-        sum = madd(t, amp, sum);
+        sum = madd(m->scale * t[i], amp, sum);
         maxamp += amp;
         amp *= roughness;
-        fscale *= lacunarity;
     }
-    float rmd = detail - floorf(detail);
     if (rmd != 0.0f) {
-        float t = snoise(m, np_scale(p, fscale));
-        float sum2 = madd(t, amp, sum);
+        float sum2 = madd(m->scale * t[n + 1], amp, sum);
         if (normalize)
             return lerp(0.5f * sum / maxamp + 0.5f, 0.5f * sum2 / (maxamp + amp) + 0.5f, rmd);
         return lerp(sum, sum2, rmd);
@@ -395,80 +540,80 @@ static float fbm4(const noise_mode *m, npoint p, float detail, float roughness, 
     return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
 }
 
-static float multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
+static float multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
                             float lacunarity)
 {
-    float value = 1.0f, pwr = 1.0f;
     int n = (int)detail;
-    for (int i = 0; i <= n; i++) {
-        value *= madd(pwr, snoise(m, p), 1.0f);
-        pwr *= roughness;
-        p = np_scale(p, lacunarity);
-    }
     float rmd = detail - floorf(detail);
+
+    float value = 1.0f, pwr = 1.0f;
+    for (int i = 0; i <= n; i++) {
+        value *= madd(pwr, m->scale * t[i], 1.0f);
+        pwr *= roughness;
+    }
     if (rmd != 0.0f)
-        value *= madd(rmd * pwr, snoise(m, p), 1.0f);
+        value *= madd(rmd * pwr, m->scale * t[n + 1], 1.0f);
     return value;
 }
 
-static float hetero_terrain4(const noise_mode *m, npoint p, float detail, float roughness,
+static float hetero_terrain4(const noise_mode *m, const float *t, float detail, float roughness,
                              float lacunarity, float offset)
 {
-    float pwr = roughness;
-    /* The first octave is unscaled; later ones are scaled by the value so far. */
-    float value = snoise_plus(m, p, offset);
-    p = np_scale(p, lacunarity);
     int n = (int)detail;
+    float rmd = detail - floorf(detail);
+
+    /* The first octave is unscaled; later ones are scaled by the value so far. In
+     * snoise + offset the noise's scaling product fuses into the sum. */
+    float pwr = roughness;
+    float value = madd(m->scale, t[0], offset);
     for (int i = 1; i <= n; i++) {
-        float increment = snoise_plus(m, p, offset) * pwr;
+        float increment = madd(m->scale, t[i], offset) * pwr;
         value = madd(increment, value, value);
         pwr *= roughness;
-        p = np_scale(p, lacunarity);
     }
-    float rmd = detail - floorf(detail);
     if (rmd != 0.0f) {
-        float increment = snoise_plus(m, p, offset) * pwr * value;
+        float increment = madd(m->scale, t[n + 1], offset) * pwr * value;
         value = madd(rmd, increment, value);
     }
     return value;
 }
 
-static float hybrid_multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
+static float hybrid_multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
                                    float lacunarity, float offset, float gain)
 {
-    float pwr = 1.0f, value = 0.0f, weight = 1.0f;
     int n = (int)detail;
+    float rmd = detail - floorf(detail);
+
+    float pwr = 1.0f, value = 0.0f, weight = 1.0f;
     for (int i = 0; weight > 0.001f && i <= n; i++) {
         if (weight > 1.0f)
             weight = 1.0f;
-        float signal = snoise_plus(m, p, offset) * pwr;
+        float signal = madd(m->scale, t[i], offset) * pwr;
         pwr *= roughness;
         value = madd(weight, signal, value);
         weight *= gain * signal;
-        p = np_scale(p, lacunarity);
     }
-    float rmd = detail - floorf(detail);
     if (rmd != 0.0f && weight > 0.001f) {
         if (weight > 1.0f)
             weight = 1.0f;
-        float signal = snoise_plus(m, p, offset) * pwr;
+        float signal = madd(m->scale, t[n + 1], offset) * pwr;
         value = madd(rmd * weight, signal, value);
     }
     return value;
 }
 
-static float ridged_multi_fractal4(const noise_mode *m, npoint p, float detail, float roughness,
+static float ridged_multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
                                    float lacunarity, float offset, float gain)
 {
+    int n = (int)detail;
+
     float pwr = roughness;
-    float signal = offset - fabsf(snoise(m, p));
+    float signal = offset - fabsf(m->scale * t[0]);
     signal *= signal;
     float value = signal, weight = 1.0f;
-    int n = (int)detail;
     for (int i = 1; i <= n; i++) {
-        p = np_scale(p, lacunarity);
         weight = clampf(signal * gain, 0.0f, 1.0f);
-        signal = offset - fabsf(snoise(m, p));
+        signal = offset - fabsf(m->scale * t[i]);
         signal *= signal;
         signal *= weight;
         value = madd(signal, pwr, value);
@@ -479,23 +624,22 @@ static float ridged_multi_fractal4(const noise_mode *m, npoint p, float detail, 
 
 /* ---- Blender 3.4's Noise Texture fBM (fractal_noise.h of 3.4) --------------------- */
 
-static float fractal_noise3(const noise_mode *m, npoint p, float octaves, float roughness)
+static float fractal_noise3(const noise_mode *m, const float *t, float octaves, float roughness)
 {
-    float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
     octaves = clampf(octaves, 0.0f, 15.0f);
     roughness = clampf(roughness, 0.0f, 1.0f);
     int n = (int)octaves;
+    float rmd = octaves - floorf(octaves);
+
+    /* Sums the unsigned noise 0.5 * snoise + 0.5 (fused). */
+    float amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
     for (int i = 0; i <= n; i++) {
-        float t = madd(0.5f, snoise(m, np_scale(p, fscale)), 0.5f);
-        sum = madd(t, amp, sum);
+        sum = madd(madd(0.5f, m->scale * t[i], 0.5f), amp, sum);
         maxamp += amp;
         amp *= roughness;
-        fscale *= 2.0f;
     }
-    float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f) {
-        float t = madd(0.5f, snoise(m, np_scale(p, fscale)), 0.5f);
-        float sum2 = madd(t, amp, sum);
+        float sum2 = madd(madd(0.5f, m->scale * t[n + 1], 0.5f), amp, sum);
         sum /= maxamp;
         sum2 /= maxamp + amp;
         return madd(rmd, sum2, (1.0f - rmd) * sum);
@@ -505,96 +649,90 @@ static float fractal_noise3(const noise_mode *m, npoint p, float octaves, float 
 
 /* ---- Blender 3.4's Musgrave Texture (musgrave.h of 3.4) -------------------------- */
 
-static float musgrave_fbm3(const noise_mode *m, npoint p, float H, float lacunarity, float octaves)
+static float musgrave_fbm3(const noise_mode *m, const float *t, float H, float lacunarity, float octaves)
 {
-    float value = 0.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
     int n = (int)octaves;
+    float value = 0.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
     for (int i = 0; i < n; i++) {
-        value = madd(snoise(m, p), pwr, value);
+        value = madd(m->scale * t[i], pwr, value);
         pwr *= pwHL;
-        p = np_scale(p, lacunarity);
     }
     float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f)
-        value = madd(rmd * snoise(m, p), pwr, value);
+        value = madd(rmd * (m->scale * t[n]), pwr, value);
     return value;
 }
 
-static float musgrave_multi_fractal3(const noise_mode *m, npoint p, float H, float lacunarity,
+static float musgrave_multi_fractal3(const noise_mode *m, const float *t, float H, float lacunarity,
                                      float octaves)
 {
-    float value = 1.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
     int n = (int)octaves;
+    float value = 1.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
     for (int i = 0; i < n; i++) {
-        value *= madd(pwr, snoise(m, p), 1.0f);
+        value *= madd(pwr, m->scale * t[i], 1.0f);
         pwr *= pwHL;
-        p = np_scale(p, lacunarity);
     }
     float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f)
-        value *= madd(rmd * pwr, snoise(m, p), 1.0f);
+        value *= madd(rmd * pwr, m->scale * t[n], 1.0f);
     return value;
 }
 
-static float musgrave_hetero_terrain3(const noise_mode *m, npoint p, float H, float lacunarity,
+static float musgrave_hetero_terrain3(const noise_mode *m, const float *t, float H, float lacunarity,
                                       float octaves, float offset)
 {
-    float pwHL = powf(lacunarity, -H), pwr = pwHL;
-    float value = snoise_plus(m, p, offset);
-    p = np_scale(p, lacunarity);
     int n = (int)octaves;
+    float pwHL = powf(lacunarity, -H), pwr = pwHL;
+    float value = madd(m->scale, t[0], offset);
     for (int i = 1; i < n; i++) {
-        float increment = snoise_plus(m, p, offset) * pwr;
+        float increment = madd(m->scale, t[i], offset) * pwr;
         value = madd(increment, value, value);
         pwr *= pwHL;
-        p = np_scale(p, lacunarity);
     }
     float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f) {
-        float increment = snoise_plus(m, p, offset) * pwr * value;
+        float increment = madd(m->scale, t[n < 1 ? 1 : n], offset) * pwr * value;
         value = madd(rmd, increment, value);
     }
     return value;
 }
 
-static float musgrave_hybrid_multi_fractal3(const noise_mode *m, npoint p, float H,
+static float musgrave_hybrid_multi_fractal3(const noise_mode *m, const float *t, float H,
                                             float lacunarity, float octaves, float offset,
                                             float gain)
 {
-    float pwHL = powf(lacunarity, -H), pwr = 1.0f, value = 0.0f, weight = 1.0f;
     int n = (int)octaves;
+    float pwHL = powf(lacunarity, -H), pwr = 1.0f, value = 0.0f, weight = 1.0f;
     for (int i = 0; weight > 0.001f && i < n; i++) {
         if (weight > 1.0f)
             weight = 1.0f;
-        float signal = snoise_plus(m, p, offset) * pwr;
+        float signal = madd(m->scale, t[i], offset) * pwr;
         pwr *= pwHL;
         value = madd(weight, signal, value);
         weight *= gain * signal;
-        p = np_scale(p, lacunarity);
     }
     float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f && weight > 0.001f) {
         if (weight > 1.0f)
             weight = 1.0f;
-        float signal = snoise_plus(m, p, offset) * pwr;
+        float signal = madd(m->scale, t[n], offset) * pwr;
         value = madd(rmd * weight, signal, value);
     }
     return value;
 }
 
-static float musgrave_ridged_multi_fractal3(const noise_mode *m, npoint p, float H,
+static float musgrave_ridged_multi_fractal3(const noise_mode *m, const float *t, float H,
                                             float lacunarity, float octaves, float offset,
                                             float gain)
 {
+    int n = (int)octaves;
     float pwHL = powf(lacunarity, -H), pwr = pwHL;
-    float signal = offset - fabsf(snoise(m, p));
+    float signal = offset - fabsf(m->scale * t[0]);
     signal *= signal;
     float value = signal, weight = 1.0f;
-    int n = (int)octaves;
     for (int i = 1; i < n; i++) {
-        p = np_scale(p, lacunarity);
         weight = clampf(signal * gain, 0.0f, 1.0f);
-        signal = offset - fabsf(snoise(m, p));
+        signal = offset - fabsf(m->scale * t[i]);
         signal *= signal;
         signal *= weight;
         value = madd(signal, pwr, value);
@@ -654,47 +792,89 @@ typedef struct noise_node {
 
 typedef struct noise_inputs {
     float detail, roughness, lacunarity, offset, gain, distortion;
+    /* Blender 3.x, Musgrave translation: the translated node's inputs after 3.4's own
+     * clamps (compat_noise.py: Detail + 1, Dimension from Roughness and Lacunarity). */
+    float musgrave_octaves, musgrave_H, musgrave_lacunarity;
 } noise_inputs;
 
-/* One fractal evaluation of the node's type at an already scaled and distorted point. */
-static float noise_select(const noise_node *nn, npoint p, const noise_inputs *in)
+/* Where a fractal's octaves are evaluated: `count` points, either fscale * p with
+ * fscale = 1, factor, factor^2, ... (the fBMs) or p, p * factor, ... (the others). */
+typedef struct octave_layout {
+    int count;
+    bool fbm;
+    float factor;
+} octave_layout;
+
+static octave_layout fractal_layout(const noise_node *nn, const noise_inputs *in)
+{
+    octave_layout l = {0, false, in->lacunarity};
+    if (!nn->mode.blender3) {
+        int n = (int)in->detail;
+        bool frac = in->detail - floorf(in->detail) != 0.0f;
+        l.fbm = nn->type == TYPE_FBM;
+        l.count = n + 1 + (frac && nn->type != TYPE_RIDGED);
+        return l;
+    }
+    if (!nn->as_musgrave) {
+        float octaves = clampf(in->detail, 0.0f, 15.0f);
+        l.fbm = true;
+        l.factor = 2.0f;
+        l.count = (int)octaves + 1 + (octaves - floorf(octaves) != 0.0f);
+        return l;
+    }
+    /* Musgrave loops run `i < octaves` and evaluate the fractional octave at the next
+     * point; hetero terrain and ridged always evaluate the first octave, and ridged has
+     * no fractional one. */
+    float octaves = in->musgrave_octaves;
+    int n = (int)octaves;
+    bool frac = octaves - floorf(octaves) != 0.0f;
+    bool first_always = nn->type == TYPE_HETERO || nn->type == TYPE_RIDGED;
+    l.factor = in->musgrave_lacunarity;
+    l.count = (first_always && n < 1 ? 1 : n) + (frac && nn->type != TYPE_RIDGED);
+    return l;
+}
+
+static void layout_points(const octave_layout *l, npoint p, npoint *pts)
+{
+    if (l->fbm)
+        scaled_points(p, l->factor, l->count, pts);
+    else
+        octave_points(p, l->factor, l->count, pts);
+}
+
+/* The node's fractal from the Perlin values t of its octave points. */
+static float fractal_value(const noise_node *nn, const noise_inputs *in, const float *t)
 {
     const noise_mode *m = &nn->mode;
     if (!m->blender3) {
         switch (nn->type) {
         case TYPE_MULTIFRACTAL:
-            return multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity);
+            return multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity);
         case TYPE_RIDGED:
-            return ridged_multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity,
+            return ridged_multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity,
                                          in->offset, in->gain);
         case TYPE_HYBRID:
-            return hybrid_multi_fractal4(m, p, in->detail, in->roughness, in->lacunarity,
+            return hybrid_multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity,
                                          in->offset, in->gain);
         case TYPE_HETERO:
-            return hetero_terrain4(m, p, in->detail, in->roughness, in->lacunarity,
+            return hetero_terrain4(m, t, in->detail, in->roughness, in->lacunarity,
                                    in->offset);
         default:
-            return fbm4(m, p, in->detail, in->roughness, in->lacunarity, nn->normalize);
+            return fbm4(m, t, in->detail, in->roughness, in->lacunarity, nn->normalize);
         }
     }
     if (!nn->as_musgrave)
-        return fractal_noise3(m, p, in->detail, in->roughness);
+        return fractal_noise3(m, t, in->detail, in->roughness);
 
-    /* The translated Musgrave node's inputs, then 3.4's own clamps. */
-    float octaves = clampf(clampf(in->detail, 0.0f, 15.0f) + 1.0f, 0.0f, 15.0f);
-    float H = fmaxf(musgrave_dimension(in->roughness, in->lacunarity), 1e-5f);
-    float lacunarity = fmaxf(in->lacunarity, 1e-5f);
+    float octaves = in->musgrave_octaves, H = in->musgrave_H, lac = in->musgrave_lacunarity;
     switch (nn->type) {
-    case TYPE_MULTIFRACTAL: return musgrave_multi_fractal3(m, p, H, lacunarity, octaves);
+    case TYPE_MULTIFRACTAL: return musgrave_multi_fractal3(m, t, H, lac, octaves);
     case TYPE_RIDGED:
-        return musgrave_ridged_multi_fractal3(m, p, H, lacunarity, octaves, in->offset,
-                                              in->gain);
+        return musgrave_ridged_multi_fractal3(m, t, H, lac, octaves, in->offset, in->gain);
     case TYPE_HYBRID:
-        return musgrave_hybrid_multi_fractal3(m, p, H, lacunarity, octaves, in->offset,
-                                              in->gain);
-    case TYPE_HETERO:
-        return musgrave_hetero_terrain3(m, p, H, lacunarity, octaves, in->offset);
-    default: return musgrave_fbm3(m, p, H, lacunarity, octaves);
+        return musgrave_hybrid_multi_fractal3(m, t, H, lac, octaves, in->offset, in->gain);
+    case TYPE_HETERO: return musgrave_hetero_terrain3(m, t, H, lac, octaves, in->offset);
+    default: return musgrave_fbm3(m, t, H, lac, octaves);
     }
 }
 
@@ -704,20 +884,36 @@ static void noise_point(const noise_node *nn, npoint p, const noise_inputs *in, 
     int dims = nn->mode.dims;
     /* 3.4's Musgrave has no Distortion. */
     if (in->distortion != 0.0f && !nn->as_musgrave) {
+        npoint pts[4];
         float d[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         for (int k = 0; k <= dims; k++)
-            d[k] = snoise(&nn->mode, np_add(p, nn->distortion_seed[k])) * in->distortion;
+            pts[k] = np_add(p, nn->distortion_seed[k]);
+        nn->mode.perlin_many(pts, dims + 1, d);
+        for (int k = 0; k <= dims; k++)
+            d[k] = nn->mode.scale * d[k] * in->distortion;
         npoint offset = {d[0], d[1], d[2], d[3]};
         p = np_add(p, offset);
     }
-    *fac = noise_select(nn, p, in);
+
+    /* Fac, and Color's green and blue at seeded offsets: all their octaves at once. */
+    bool three = color && !nn->as_musgrave;
+    octave_layout l = fractal_layout(nn, in);
+    npoint pts[3 * MAX_OCTAVES];
+    float t[3 * MAX_OCTAVES];
+    layout_points(&l, p, pts);
+    if (three) {
+        layout_points(&l, np_add(p, nn->color_seed[0]), pts + l.count);
+        layout_points(&l, np_add(p, nn->color_seed[1]), pts + 2 * l.count);
+    }
+    nn->mode.perlin_many(pts, three ? 3 * l.count : l.count, t);
+
+    *fac = fractal_value(nn, in, t);
     if (color) {
-        if (nn->as_musgrave) {
-            *color = make_float3(*fac, *fac, *fac);
-            return;
-        }
-        *color = make_float3(*fac, noise_select(nn, np_add(p, nn->color_seed[0]), in),
-                             noise_select(nn, np_add(p, nn->color_seed[1]), in));
+        if (!three)
+            *color = make_float3(*fac, *fac, *fac); /* 3.4's Musgrave: Fac only */
+        else
+            *color = make_float3(*fac, fractal_value(nn, in, t + l.count),
+                                 fractal_value(nn, in, t + 2 * l.count));
     }
 }
 
@@ -751,6 +947,10 @@ static void tex_noise_kernel(const sg_kernel_args *a)
         if (!nn.mode.blender3) {
             in.detail = clampf(in.detail, 0.0f, 15.0f);
             in.roughness = fmaxf(in.roughness, 0.0f);
+        } else if (nn.as_musgrave) {
+            in.musgrave_octaves = clampf(clampf(in.detail, 0.0f, 15.0f) + 1.0f, 0.0f, 15.0f);
+            in.musgrave_H = fmaxf(musgrave_dimension(in.roughness, in.lacunarity), 1e-5f);
+            in.musgrave_lacunarity = fmaxf(in.lacunarity, 1e-5f);
         }
 
         /* Only the sockets the dimensions make available are read. */
