@@ -864,6 +864,51 @@ sg_graph *sg_graph_load_file(const char *path, sg_error *err)
     return g;
 }
 
+/* ---- queries ---------------------------------------------------------------------- */
+
+const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
+{
+    const sg_tree *t = &g->main;
+    int out = -1;
+    /* The active output: Blender marks one; with several, the first marked wins. */
+    for (int i = 0; i < t->n_nodes; i++) {
+        const sg_node *n = &t->nodes[i];
+        if (strcmp(n->type->idname, "ShaderNodeOutputMaterial") != 0)
+            continue;
+        int k = sg_node_type_prop_index(n->type, "is_active_output");
+        if (out < 0 || (k >= 0 && n->prop[k]))
+            out = i;
+        if (k >= 0 && n->prop[k])
+            break;
+    }
+    if (out < 0) {
+        sg_error_set(err, "%s: no Material Output", g->name);
+        return NULL;
+    }
+    int node = out, socket = sg_node_input_index(&t->nodes[out], "Surface");
+    for (int hops = 0; hops <= t->n_nodes; hops++) {
+        int l = sg_tree_input_link(t, node, socket);
+        if (l < 0) {
+            sg_error_set(err, "%s: nothing is linked to the Material Output's Surface", g->name);
+            return NULL;
+        }
+        const sg_node *from = &t->nodes[t->links[l].from_node];
+        if (!strcmp(from->type->idname, "NodeReroute")) {
+            node = t->links[l].from_node;
+            socket = 0;
+            continue;
+        }
+        if (strcmp(from->type->idname, "ShaderNodeBsdfPrincipled") != 0) {
+            sg_error_set(err, "%s: the Surface shader is \"%s\" (%s); only a Principled BSDF "
+                         "can be rendered", g->name, from->name, from->type->idname);
+            return NULL;
+        }
+        return from->name;
+    }
+    sg_error_set(err, "%s: reroutes form a cycle", g->name);
+    return NULL;
+}
+
 /* ---- freeing ---------------------------------------------------------------------- */
 
 static void free_tree(sg_tree *t)

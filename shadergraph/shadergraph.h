@@ -79,6 +79,11 @@ int sg_graph_save_file(const sg_graph *g, const char *path, sg_error *err);
 
 void sg_graph_free(sg_graph *g);
 
+/* The name of the Principled BSDF node feeding the active Material Output's Surface
+ * (through reroutes), which is where a renderer reads the material's maps. NULL with a
+ * message when there is none (an unlinked Surface, another shader, a group). */
+const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err);
+
 /* ---- compiling ------------------------------------------------------------------- */
 
 /* A socket to evaluate: node name and socket identifier, either an output socket of the
@@ -213,8 +218,8 @@ void sg_params_sample(sg_params *p, unsigned long long frame);
 int sg_params_read_file(const char *path, sg_params *p, sg_error *err);
 int sg_params_read_json(const char *text, size_t len, const char *source_name, sg_params *p,
                         sg_error *err);
-/* JSON text in the same format, in p's order (caller frees with free()); floats are
- * written with 9 significant digits so they read back bit for bit. */
+/* JSON text in the same format, in p's order (caller frees with free()); each value in
+ * the shortest form that reads back as the same float. */
 char *sg_params_to_json(const sg_params *p);
 /* Write atomically (temp file in the same directory, then rename). */
 int sg_params_write_file(const char *path, const sg_params *p, sg_error *err);

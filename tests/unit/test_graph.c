@@ -343,6 +343,26 @@ static void test_pointwise_equals_batch(void **state)
     sg_graph_free(g);
 }
 
+static void test_surface_bsdf(void **state)
+{
+    (void)state;
+    sg_error err;
+    sg_graph *g = load(valid_graph, &err);
+    assert_non_null(g);
+    const char *name = sg_graph_surface_bsdf(g, &err);
+    assert_non_null(name);
+    assert_string_equal(name, "Principled BSDF");
+    sg_graph_free(g);
+    char *s = mutate("{\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\", \"to_node\": \"Material Output\", \"to_socket\": \"Surface\"}",
+                     "{\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\", \"to_node\": \"Material Output\", \"to_socket\": \"Volume\"}");
+    g = load(s, &err);
+    free(s);
+    assert_non_null(g);
+    assert_null(sg_graph_surface_bsdf(g, &err));
+    assert_non_null(strstr(err.msg, "Surface"));
+    sg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -359,6 +379,7 @@ int main(void)
         cmocka_unit_test(test_socket_ref_parse),
         cmocka_unit_test(test_link_conversions),
         cmocka_unit_test(test_pointwise_equals_batch),
+        cmocka_unit_test(test_surface_bsdf),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
