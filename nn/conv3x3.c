@@ -16,10 +16,13 @@
  * products would be too narrow: col (9C x T) and one product W (K x 9C) * col.
  *
  * Both write a chunk's product into a scratch buffer and scatter it, plus bias, into the
- * NCHW output: a chunk may span images, which keeps products wide in the deep layers.
+ * NCHW output.
  */
 #include <cblas.h>
 #include <string.h>
+#ifdef __AVX512F__
+#include <immintrin.h>
+#endif
 
 #include "nn/conv3x3.h"
 
@@ -49,138 +52,285 @@ void winograd_weights(float *U, const float *w, int K, int C)
 
 /* ------------------------------------------------------------ chunk geometry ------ */
 
-/* Tiles of one plane and their total over the batch. */
+/* A Winograd chunk is a run of whole tile rows (global row r = n * th + ty) of one image,
+ * so that the transforms walk along rows with vector loads; an im2col chunk is a run of
+ * output pixels of one image. */
 static void winograd_tiles(const conv_layer *L, int *th, int *tw)
 {
     *th = (L->H + 1) / 2;
     *tw = (L->W + 1) / 2;
 }
 
-size_t conv_chunk_count(const conv_layer *L)
+/* Floats of one padded input row: the tile loads of a 16-tile group read up to 16 floats
+ * past the last tile, and the row starts one pixel left of the plane. */
+static size_t row_floats(int W)
 {
-    size_t units;
-    if (L->winograd) {
-        int th, tw;
-        winograd_tiles(L, &th, &tw);
-        units = (size_t)L->N * th * tw;
-    } else {
-        units = (size_t)L->N * L->H * L->W;
-    }
-    return (units + L->chunk - 1) / L->chunk;
+    int tw = (W + 1) / 2;
+    return 2 * (size_t)((tw + 15) / 16 * 16) + 34;
 }
 
-/* Columns per chunk so that the chunk's buffers fit in about `budget` bytes; a multiple of
- * 16 (one AVX-512 register of floats) and at least 16. */
-int conv_chunk_columns(int winograd, int C, int K, size_t budget)
+/* Units (tile rows, or pixels) of one image. Chunks never span images, so an image's
+ * result does not depend on what else is in the batch: same bits at any batch size. */
+static size_t units_per_image(const conv_layer *L)
 {
-    size_t per_col = winograd ? 16 * (size_t)(C + K) * sizeof(float)
-                              : (9 * (size_t)C + (size_t)K) * sizeof(float);
-    size_t t = budget / per_col;
-    t = t / 16 * 16;
+    int th, tw;
+    winograd_tiles(L, &th, &tw);
+    return L->winograd ? (size_t)th : (size_t)L->H * L->W;
+}
+
+size_t conv_chunk_count(const conv_layer *L)
+{
+    return (size_t)L->N * ((units_per_image(L) + L->chunk - 1) / L->chunk);
+}
+
+int conv_chunk_size(int winograd, int C, int K, int W, size_t budget)
+{
+    if (winograd) {
+        size_t tw = (size_t)(W + 1) / 2, per_tile = 16 * (size_t)(C + K) * sizeof(float);
+        size_t rows = budget / (per_tile * tw);
+        return rows < 1 ? 1 : (int)rows;
+    }
+    /* A multiple of 16 columns (one AVX-512 register of floats), at least 16. */
+    size_t t = budget / ((9 * (size_t)C + (size_t)K) * sizeof(float)) / 16 * 16;
     return t < 16 ? 16 : (int)t;
 }
 
-size_t conv_scratch_floats(int winograd, int C, int K, int chunk)
+size_t conv_scratch_floats(int winograd, int C, int K, int W, int chunk)
 {
-    return winograd ? 16 * (size_t)(C + K) * chunk : (9 * (size_t)C + (size_t)K) * chunk;
+    if (winograd) {
+        size_t T = (size_t)chunk * ((W + 1) / 2);
+        return 16 * (size_t)(C + K) * T + 4 * row_floats(W);
+    }
+    return (9 * (size_t)C + (size_t)K) * chunk;
 }
 
-/* ------------------------------------------------------------ Winograd chunk ------ */
+/* ------------------------------------------------------------ Winograd rows ------- */
 
-static void winograd_chunk(const conv_layer *L, size_t t0, int T, float *scratch)
+/* B^T d B for the tiles of one tile row of one channel. rows[i][j] is the input pixel
+ * (2ty - 1 + i, j - 1), zero outside the plane, so tile tx's patch is columns
+ * 2tx .. 2tx+3. Writes v[xi * xs + tx]. */
+static void input_transform_row(float *v, size_t xs, float *const rows[4], int tw)
+{
+    int tx = 0;
+#ifdef __AVX512F__
+    const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26,
+                                           28, 30);
+    const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+    for (; tx < tw; tx += 16) {
+        __mmask16 m = tw - tx >= 16 ? 0xffff : (__mmask16)((1u << (tw - tx)) - 1);
+        __m512 d[4][4];
+        for (int i = 0; i < 4; i++) {
+            const float *base = rows[i] + 2 * tx;
+            __m512 lo = _mm512_loadu_ps(base), hi = _mm512_loadu_ps(base + 16);
+            __m512 lo2 = _mm512_loadu_ps(base + 2), hi2 = _mm512_loadu_ps(base + 18);
+            d[i][0] = _mm512_permutex2var_ps(lo, even, hi);
+            d[i][1] = _mm512_permutex2var_ps(lo, odd, hi);
+            d[i][2] = _mm512_permutex2var_ps(lo2, even, hi2);
+            d[i][3] = _mm512_permutex2var_ps(lo2, odd, hi2);
+        }
+        for (int i = 0; i < 4; i++) { /* rows of B^T d, then times B */
+            __m512 b0, b1, b2, b3;
+            if (i == 0) {
+                b0 = _mm512_sub_ps(d[0][0], d[2][0]); b1 = _mm512_sub_ps(d[0][1], d[2][1]);
+                b2 = _mm512_sub_ps(d[0][2], d[2][2]); b3 = _mm512_sub_ps(d[0][3], d[2][3]);
+            } else if (i == 1) {
+                b0 = _mm512_add_ps(d[1][0], d[2][0]); b1 = _mm512_add_ps(d[1][1], d[2][1]);
+                b2 = _mm512_add_ps(d[1][2], d[2][2]); b3 = _mm512_add_ps(d[1][3], d[2][3]);
+            } else if (i == 2) {
+                b0 = _mm512_sub_ps(d[2][0], d[1][0]); b1 = _mm512_sub_ps(d[2][1], d[1][1]);
+                b2 = _mm512_sub_ps(d[2][2], d[1][2]); b3 = _mm512_sub_ps(d[2][3], d[1][3]);
+            } else {
+                b0 = _mm512_sub_ps(d[1][0], d[3][0]); b1 = _mm512_sub_ps(d[1][1], d[3][1]);
+                b2 = _mm512_sub_ps(d[1][2], d[3][2]); b3 = _mm512_sub_ps(d[1][3], d[3][3]);
+            }
+            float *o = v + (size_t)(4 * i) * xs + tx;
+            _mm512_mask_storeu_ps(o, m, _mm512_sub_ps(b0, b2));
+            _mm512_mask_storeu_ps(o + xs, m, _mm512_add_ps(b1, b2));
+            _mm512_mask_storeu_ps(o + 2 * xs, m, _mm512_sub_ps(b2, b1));
+            _mm512_mask_storeu_ps(o + 3 * xs, m, _mm512_sub_ps(b1, b3));
+        }
+    }
+#endif
+    for (; tx < tw; tx++) {
+        float d[4][4], b[4][4];
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++)
+                d[i][j] = rows[i][2 * tx + j];
+        for (int j = 0; j < 4; j++) {
+            b[0][j] = d[0][j] - d[2][j];
+            b[1][j] = d[1][j] + d[2][j];
+            b[2][j] = d[2][j] - d[1][j];
+            b[3][j] = d[1][j] - d[3][j];
+        }
+        for (int i = 0; i < 4; i++) {
+            v[(4 * i + 0) * xs + tx] = b[i][0] - b[i][2];
+            v[(4 * i + 1) * xs + tx] = b[i][1] + b[i][2];
+            v[(4 * i + 2) * xs + tx] = b[i][2] - b[i][1];
+            v[(4 * i + 3) * xs + tx] = b[i][1] - b[i][3];
+        }
+    }
+}
+
+/* A^T m A + bias for one tile row of one output channel: m[xi * ms + tx] -> output rows
+ * o0 (2ty) and o1 (2ty+1, NULL past the plane), W columns. */
+static void output_transform_row(float *o0, float *o1, const float *m, size_t ms, int tw,
+                                 int W, float bias)
+{
+    int tx = 0;
+#ifdef __AVX512F__
+    const __m512i lo_idx = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22,
+                                             7, 23);
+    const __m512i hi_idx = _mm512_add_epi32(lo_idx, _mm512_set1_epi32(8));
+    const __m512 vb = _mm512_set1_ps(bias);
+    for (; tx < tw; tx += 16) {
+        __mmask16 mt = tw - tx >= 16 ? 0xffff : (__mmask16)((1u << (tw - tx)) - 1);
+        __m512 r0[4], r1[4];
+        for (int j = 0; j < 4; j++) {
+            __m512 m0 = _mm512_maskz_loadu_ps(mt, m + (size_t)j * ms + tx);
+            __m512 m1 = _mm512_maskz_loadu_ps(mt, m + (size_t)(4 + j) * ms + tx);
+            __m512 m2 = _mm512_maskz_loadu_ps(mt, m + (size_t)(8 + j) * ms + tx);
+            __m512 m3 = _mm512_maskz_loadu_ps(mt, m + (size_t)(12 + j) * ms + tx);
+            r0[j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
+            r1[j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
+        }
+        int left = W - 2 * tx; /* output columns from 2tx to the plane's edge */
+        __mmask16 mlo = left >= 16 ? 0xffff : (__mmask16)((1u << left) - 1);
+        __mmask16 mhi = left >= 32 ? 0xffff : left <= 16 ? 0 : (__mmask16)((1u << (left - 16)) - 1);
+        for (int i = 0; i < 2; i++) {
+            float *o = i ? o1 : o0;
+            if (!o)
+                break;
+            const __m512 *r = i ? r1 : r0;
+            __m512 y0 = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(r[0], r[1]), r[2]), vb);
+            __m512 y1 = _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(r[1], r[2]), r[3]), vb);
+            _mm512_mask_storeu_ps(o + 2 * tx, mlo, _mm512_permutex2var_ps(y0, lo_idx, y1));
+            _mm512_mask_storeu_ps(o + 2 * tx + 16, mhi, _mm512_permutex2var_ps(y0, hi_idx, y1));
+        }
+    }
+#endif
+    for (; tx < tw; tx++) {
+        float r[2][4];
+        for (int j = 0; j < 4; j++) {
+            float m0 = m[j * ms + tx], m1 = m[(4 + j) * ms + tx], m2 = m[(8 + j) * ms + tx],
+                  m3 = m[(12 + j) * ms + tx];
+            r[0][j] = m0 + m1 + m2;
+            r[1][j] = m1 - m2 - m3;
+        }
+        for (int i = 0; i < 2; i++) {
+            float *o = i ? o1 : o0;
+            if (!o)
+                break;
+            o[2 * tx] = r[i][0] + r[i][1] + r[i][2] + bias;
+            if (2 * tx + 1 < W)
+                o[2 * tx + 1] = r[i][1] - r[i][2] - r[i][3] + bias;
+        }
+    }
+}
+
+#ifdef __AVX512F__
+static __mmask16 lanes(int left)
+{
+    return left >= 16 ? 0xffff : left <= 0 ? 0 : (__mmask16)((1u << left) - 1);
+}
+
+/* One 8 x (16 nv) block of M = U V: acc[r][j] += U[k0 + r][c] * V[c][t0 + 16 j + lane].
+ * nv is a compile-time constant at every call, so the accumulators live in registers. */
+static inline __attribute__((always_inline)) void
+gemm_block(float *M, const float *U, const float *V, int C, int T, int k0, int t0, int nv)
+{
+    __mmask16 m[3];
+    for (int j = 0; j < 3; j++)
+        m[j] = lanes(T - t0 - 16 * j);
+    __m512 acc[8][3];
+    for (int r = 0; r < 8; r++)
+        for (int j = 0; j < nv; j++)
+            acc[r][j] = _mm512_setzero_ps();
+    const float *u = U + (size_t)k0 * C;
+    const float *v = V + t0;
+    for (int c = 0; c < C; c++, v += T, u++) {
+        __m512 vv[3];
+        for (int j = 0; j < nv; j++)
+            vv[j] = _mm512_maskz_loadu_ps(m[j], v + 16 * j);
+        for (int r = 0; r < 8; r++) {
+            __m512 b = _mm512_set1_ps(u[(size_t)r * C]);
+            for (int j = 0; j < nv; j++)
+                acc[r][j] = _mm512_fmadd_ps(b, vv[j], acc[r][j]);
+        }
+    }
+    float *o = M + (size_t)k0 * T + t0;
+    for (int r = 0; r < 8; r++)
+        for (int j = 0; j < nv; j++)
+            _mm512_mask_storeu_ps(o + (size_t)r * T + 16 * j, m[j], acc[r][j]);
+}
+#endif
+
+/* M (K x T, row stride T) = U (K x C) * V (C x T, row stride T).
+ * Register tile: 8 output channels x 48 tiles (24 accumulators); each step over c loads
+ * three vectors of V and broadcasts 8 weights for 24 FMAs. The remainder of T takes a
+ * 32- or 16-wide block. No packing: V is already laid out as the kernel reads it, and
+ * its panel is reused from L1 across all K. The sum over c runs in order 0..C-1 for every
+ * output, whatever T or the thread. */
+static void gemm_kct(float *M, const float *U, const float *V, int K, int C, int T)
+{
+#ifdef __AVX512F__
+    if (K % 8 == 0) {
+        int t0 = 0;
+        for (; T - t0 > 32; t0 += 48)
+            for (int k0 = 0; k0 < K; k0 += 8)
+                gemm_block(M, U, V, C, T, k0, t0, 3);
+        if (T - t0 > 16)
+            for (int k0 = 0; k0 < K; k0 += 8)
+                gemm_block(M, U, V, C, T, k0, t0, 2);
+        else if (T - t0 > 0)
+            for (int k0 = 0; k0 < K; k0 += 8)
+                gemm_block(M, U, V, C, T, k0, t0, 1);
+        return;
+    }
+#endif
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, T, C, 1.0f, U, C, V, T, 0.0f, M, T);
+}
+
+static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     int th, tw;
     winograd_tiles(L, &th, &tw);
-    const size_t per_image = (size_t)th * tw, plane = (size_t)H * W;
-    float *V = scratch;                   // (16, C, T)
-    float *M = scratch + 16 * (size_t)C * T; // (16, K, T)
+    const size_t plane = (size_t)H * W, T = (size_t)rows_in_chunk * tw;
+    float *V = scratch;                  // (16, C, T)
+    float *M = V + 16 * (size_t)C * T;   // (16, K, T)
+    float *rowbuf = M + 16 * (size_t)K * T; // 4 padded input rows
+    const size_t rf = row_floats(W);
+    float *rows[4] = {rowbuf, rowbuf + rf, rowbuf + 2 * rf, rowbuf + 3 * rf};
+    memset(rowbuf, 0, 4 * rf * sizeof(float));
 
-    /* Input transform: V[xi][c][t] = (B^T d B)[xi]. */
-    for (int c = 0; c < C; c++) {
-        size_t g = t0;
-        int n = (int)(g / per_image), rest = (int)(g % per_image);
-        int ty = rest / tw, tx = rest % tw;
-        for (int t = 0; t < T; t++) {
+    for (int q = 0; q < rows_in_chunk; q++) {
+        size_t r = row0 + (size_t)q;
+        int n = (int)(r / th), ty = (int)(r % th);
+        for (int c = 0; c < C; c++) {
             const float *x = L->in + ((size_t)n * C + c) * plane;
-            int y0 = 2 * ty - 1, x0 = 2 * tx - 1;
-            float d[4][4];
-            if (y0 >= 0 && x0 >= 0 && y0 + 4 <= H && x0 + 4 <= W) {
-                for (int i = 0; i < 4; i++)
-                    memcpy(d[i], x + (size_t)(y0 + i) * W + x0, sizeof d[i]);
-            } else {
-                for (int i = 0; i < 4; i++)
-                    for (int j = 0; j < 4; j++) {
-                        int yy = y0 + i, xx = x0 + j;
-                        d[i][j] = yy >= 0 && yy < H && xx >= 0 && xx < W
-                                      ? x[(size_t)yy * W + xx]
-                                      : 0.0f;
-                    }
+            for (int i = 0; i < 4; i++) {
+                int y = 2 * ty - 1 + i;
+                if (y >= 0 && y < H)
+                    memcpy(rows[i] + 1, x + (size_t)y * W, (size_t)W * sizeof(float));
+                else
+                    memset(rows[i] + 1, 0, (size_t)W * sizeof(float));
             }
-            float b[4][4]; /* B^T d */
-            for (int j = 0; j < 4; j++) {
-                b[0][j] = d[0][j] - d[2][j];
-                b[1][j] = d[1][j] + d[2][j];
-                b[2][j] = d[2][j] - d[1][j];
-                b[3][j] = d[1][j] - d[3][j];
-            }
-            float *v = V + (size_t)c * T + t;
-            const size_t xs = (size_t)C * T;
-            for (int i = 0; i < 4; i++) { /* (B^T d) B */
-                v[(4 * i + 0) * xs] = b[i][0] - b[i][2];
-                v[(4 * i + 1) * xs] = b[i][1] + b[i][2];
-                v[(4 * i + 2) * xs] = b[i][2] - b[i][1];
-                v[(4 * i + 3) * xs] = b[i][1] - b[i][3];
-            }
-            if (++tx == tw) {
-                tx = 0;
-                if (++ty == th) {
-                    ty = 0;
-                    n++;
-                }
-            }
+            input_transform_row(V + (size_t)c * T + (size_t)q * tw, (size_t)C * T, rows, tw);
         }
     }
 
     for (int xi = 0; xi < 16; xi++)
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, T, C, 1.0f,
-                    L->U + (size_t)xi * K * C, C, V + (size_t)xi * C * T, T, 0.0f,
-                    M + (size_t)xi * K * T, T);
+        gemm_kct(M + (size_t)xi * K * T, L->U + (size_t)xi * K * C, V + (size_t)xi * C * T, K,
+                 C, (int)T);
 
-    /* Output transform: Y = A^T m A + bias, clipped to the plane. */
-    const size_t ms = (size_t)K * T;
-    for (int k = 0; k < K; k++) {
-        const float bias = L->bias[k];
-        size_t g = t0;
-        int n = (int)(g / per_image), rest = (int)(g % per_image);
-        int ty = rest / tw, tx = rest % tw;
-        for (int t = 0; t < T; t++) {
-            const float *m = M + (size_t)k * T + t;
-            float r[2][4]; /* A^T m */
-            for (int j = 0; j < 4; j++) {
-                float m0 = m[j * ms], m1 = m[(4 + j) * ms], m2 = m[(8 + j) * ms],
-                      m3 = m[(12 + j) * ms];
-                r[0][j] = m0 + m1 + m2;
-                r[1][j] = m1 - m2 - m3;
-            }
-            float *o = L->out + ((size_t)n * K + k) * plane;
-            int y = 2 * ty, x = 2 * tx;
-            for (int i = 0; i < 2; i++) {
-                if (y + i >= H)
-                    break;
-                float y0v = r[i][0] + r[i][1] + r[i][2] + bias;
-                float y1v = r[i][1] - r[i][2] - r[i][3] + bias;
-                o[(size_t)(y + i) * W + x] = y0v;
-                if (x + 1 < W)
-                    o[(size_t)(y + i) * W + x + 1] = y1v;
-            }
-            if (++tx == tw) {
-                tx = 0;
-                if (++ty == th) {
-                    ty = 0;
-                    n++;
-                }
-            }
+    for (int q = 0; q < rows_in_chunk; q++) {
+        size_t r = row0 + (size_t)q;
+        int n = (int)(r / th), ty = (int)(r % th);
+        for (int k = 0; k < K; k++) {
+            float *o = L->out + ((size_t)n * K + k) * plane + (size_t)(2 * ty) * W;
+            output_transform_row(o, 2 * ty + 1 < H ? o + W : NULL,
+                                 M + (size_t)k * T + (size_t)q * tw, (size_t)K * T, tw, W,
+                                 L->bias[k]);
         }
     }
 }
@@ -191,46 +341,43 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     const size_t plane = (size_t)H * W;
+    const size_t n = p0 / plane, first = p0 % plane; /* chunks never span images */
     float *col = scratch;                 // (9C, T)
     float *M = scratch + 9 * (size_t)C * T; // (K, T)
+    const float *img = L->in + n * C * plane;
     for (int c = 0; c < C; c++)
         for (int r = 0; r < 9; r++) {
             int dy = r / 3 - 1, dx = r % 3 - 1;
             float *dst = col + ((size_t)c * 9 + r) * T;
-            size_t g = p0;
-            for (int t = 0; t < T; t++, g++) {
-                size_t n = g / plane, p = g % plane;
-                int y = (int)(p / W) + dy, x = (int)(p % W) + dx;
-                dst[t] = y >= 0 && y < H && x >= 0 && x < W
-                             ? L->in[(n * C + c) * plane + (size_t)y * W + x]
-                             : 0.0f;
+            const float *x = img + (size_t)c * plane;
+            int y = (int)(first / W), xx = (int)(first % W);
+            for (int t = 0; t < T; t++) {
+                int sy = y + dy, sx = xx + dx;
+                dst[t] = sy >= 0 && sy < H && sx >= 0 && sx < W ? x[(size_t)sy * W + sx] : 0.0f;
+                if (++xx == W) {
+                    xx = 0;
+                    y++;
+                }
             }
         }
     cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, T, 9 * C, 1.0f, L->weight, 9 * C,
                 col, T, 0.0f, M, T);
     for (int k = 0; k < K; k++) {
-        size_t g = p0;
-        for (int t = 0; t < T; t++, g++) {
-            size_t n = g / plane, p = g % plane;
-            L->out[(n * K + k) * plane + p] = M[(size_t)k * T + t] + L->bias[k];
-        }
+        float *o = L->out + (n * K + k) * plane + first;
+        const float *m = M + (size_t)k * T;
+        const float b = L->bias[k];
+        for (int t = 0; t < T; t++)
+            o[t] = m[t] + b;
     }
 }
 
 void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch)
 {
-    size_t units;
-    if (L->winograd) {
-        int th, tw;
-        winograd_tiles(L, &th, &tw);
-        units = (size_t)L->N * th * tw;
-    } else {
-        units = (size_t)L->N * L->H * L->W;
-    }
-    size_t begin = chunk * L->chunk;
-    int T = (int)(units - begin < (size_t)L->chunk ? units - begin : (size_t)L->chunk);
+    size_t units = units_per_image(L), per_image = (units + L->chunk - 1) / L->chunk;
+    size_t n = chunk / per_image, begin = (chunk % per_image) * L->chunk;
+    int count = (int)(units - begin < (size_t)L->chunk ? units - begin : (size_t)L->chunk);
     if (L->winograd)
-        winograd_chunk(L, begin, T, scratch);
+        winograd_chunk(L, n * units + begin, count, scratch);
     else
-        im2col_chunk(L, begin, T, scratch);
+        im2col_chunk(L, n * units + begin, count, scratch);
 }

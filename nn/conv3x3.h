@@ -5,7 +5,7 @@
 #include <stddef.h>
 
 /* One conv layer's forward pass over a batch, split into independent chunks of `chunk`
- * columns (Winograd tiles, or output pixels for im2col) counted across the batch. */
+ * tile rows (Winograd) or output pixels (im2col), counted across the batch. */
 typedef struct conv_layer {
     const float *in; /* (N,C,H,W) */
     float *out;      /* (N,K,H,W) */
@@ -18,8 +18,9 @@ typedef struct conv_layer {
 } conv_layer;
 
 void winograd_weights(float *U, const float *w, int K, int C);
-int conv_chunk_columns(int winograd, int C, int K, size_t budget);
-size_t conv_scratch_floats(int winograd, int C, int K, int chunk);
+/* Chunk size for a buffer budget: tile rows (Winograd) or output pixels (im2col). */
+int conv_chunk_size(int winograd, int C, int K, int W, size_t budget);
+size_t conv_scratch_floats(int winograd, int C, int K, int W, int chunk);
 size_t conv_chunk_count(const conv_layer *L);
 /* Compute chunk `chunk` of L; scratch holds conv_scratch_floats() floats. */
 void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch);

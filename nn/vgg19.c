@@ -107,13 +107,15 @@ static uint64_t mix64(uint64_t z)
     return z ^ (z >> 31);
 }
 
-/* Standard normal from a counter: Box-Muller on two 53-bit uniforms in (0,1]. */
-static double normal_at(uint64_t seed, uint64_t layer, uint64_t index)
+/* Two standard normals from a counter: Box-Muller on two 53-bit uniforms in (0,1]. */
+static void normal_pair_at(uint64_t seed, uint64_t layer, uint64_t pair, double out[2])
 {
-    uint64_t a = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * index + 1));
-    uint64_t b = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * index + 2));
+    uint64_t a = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * pair + 1));
+    uint64_t b = mix64(seed ^ mix64(layer * 0x9e3779b97f4a7c15ull + 2 * pair + 2));
     double u1 = ((a >> 11) + 1) * 0x1p-53, u2 = (b >> 11) * 0x1p-53;
-    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+    double r = sqrt(-2.0 * log(u1));
+    out[0] = r * cos(6.283185307179586 * u2);
+    out[1] = r * sin(6.283185307179586 * u2);
 }
 
 /*
@@ -139,8 +141,13 @@ int vgg19_init_random(vgg19 *net, const int width[5], uint64_t seed)
     for (int l = 0; l < VGG_CONV_LAYERS; l++) {
         size_t n = (size_t)net->cout[l] * net->cin[l] * 9;
         double std = sqrt(2.0 / (9.0 * net->cin[l]));
-        for (size_t i = 0; i < n; i++)
-            net->weight[l][i] = (float)(std * normal_at(seed, (uint64_t)l, i));
+        for (size_t i = 0; i < n; i += 2) { /* n = 9 cin cout is even: cout is */
+            double z[2];
+            normal_pair_at(seed, (uint64_t)l, i / 2, z);
+            net->weight[l][i] = (float)(std * z[0]);
+            if (i + 1 < n)
+                net->weight[l][i + 1] = (float)(std * z[1]);
+        }
         memset(net->bias[l], 0, (size_t)net->cout[l] * sizeof(float));
     }
     return 0;
@@ -328,8 +335,8 @@ vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, in
         largest = a > largest ? a : largest;
         widest = K > widest ? K : widest;
         ws->winograd[l] = use_winograd(C, s);
-        ws->chunk[l] = conv_chunk_columns(ws->winograd[l], C, K, CONV_CHUNK_BUDGET);
-        size_t sf = conv_scratch_floats(ws->winograd[l], C, K, ws->chunk[l]);
+        ws->chunk[l] = conv_chunk_size(ws->winograd[l], C, K, s, CONV_CHUNK_BUDGET);
+        size_t sf = conv_scratch_floats(ws->winograd[l], C, K, s, ws->chunk[l]);
         scratch_floats = sf > scratch_floats ? sf : scratch_floats;
         if (ws->winograd[l]) {
             ws->U[l] = malloc(16 * (size_t)K * C * sizeof(float));
