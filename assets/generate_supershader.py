@@ -495,8 +495,9 @@ PARAMS = (noise_params("A") + noise_params("B") + noise_params("C") + [
     ("Overlay Strength", "Colour", "Detail overlaid on the colour", "factor 0..1"),
     ("Mult 4 Color Layer", "Colour (smooth switch)", "colour layer, interpolated",
      "t = v*3 between 0 two-tone, 1 grime, 2 accent spots, 3 detail overlay"),
-    ("Mult 4 Metal Mode", "Metallic", "metalness (half the materials are dielectric)",
-     "0 dielectric, 1 dielectric, 2 metal, 3 metal except under accent spots (rust)"),
+    ("Mult 4 Metal Mode", "Metallic", "metalness",
+     "0 dielectric, 1 metal, 2 metal except under accent spots (rust), "
+     "3 dielectric with metal under accent spots (inlays, flakes)"),
     ("Mult 3 Roughness Source", "Roughness", "signal that drives roughness",
      "0 Detail, 1 Noise C, 2 colour signal"),
     ("Mult 4 Roughness Mapping", "Roughness mapping", "shape of the roughness signal", MAP_CHOICES),
@@ -640,12 +641,13 @@ def build():
                              (accent, "Result_Color"), (overlay, "Result_Color")]):
         t.link(src[0], src[1], layer, "Color %d" % k)
 
-    # Metallic: dielectric, metal, or metal except under the accent (rust on steel).
+    # Metallic: dielectric, metal, metal except under the accent (rust on steel), or
+    # metal only under the accent (inlays, flakes).
     bare = t.math("Bare Metal", "SUBTRACT", 1.0, (mask, "Result"))
-    metal = t.group_node("Metal Mode", hard_switch(4),
-                         inputs={"Input 0": 0.0, "Input 1": 0.0, "Input 2": 1.0})
+    metal = t.group_node("Metal Mode", hard_switch(4), inputs={"Input 0": 0.0, "Input 1": 1.0})
     t.link(P, "Mult 4 Metal Mode", metal, "Selector")
-    t.link(bare, "Value", metal, "Input 3")
+    t.link(bare, "Value", metal, "Input 2")
+    t.link(mask, "Result", metal, "Input 3")
 
     # Roughness.
     rsrc = switch3("Roughness Source", "Mult 3 Roughness Source", [(de, "Value"), signals["C"], csrc])

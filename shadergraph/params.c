@@ -287,10 +287,23 @@ int sg_params_read_file(const char *path, sg_params *p, sg_error *err)
     return rc;
 }
 
+/* The shortest %g form that reads back as the same float (at most 9 digits, which
+ * always suffice), so sampled values print as 0.017, not 0.0170000009. */
+static size_t format_float(char *buf, size_t cap, float v)
+{
+    int n = 0;
+    for (int prec = 1; prec <= 9; prec++) {
+        n = snprintf(buf, cap, "%.*g", prec, (double)v);
+        if (strtof(buf, NULL) == v)
+            break;
+    }
+    return n > 0 ? (size_t)n : 0;
+}
+
 char *sg_params_to_json(const sg_params *p)
 {
-    /* By hand rather than through cJSON so that the order is p's and numbers have
-     * exactly 9 significant digits (enough for any float to read back the same). */
+    /* By hand rather than through cJSON so that the order is p's and every number
+     * reads back as the same float. */
     size_t cap = 64;
     for (int i = 0; i < p->n; i++)
         cap += 2 * strlen(p->names[i]) + 48;
@@ -306,7 +319,8 @@ char *sg_params_to_json(const sg_params *p)
                 s[at++] = '\\';
             s[at++] = *c;
         }
-        at += (size_t)snprintf(s + at, cap - at, "\": %.9g", (double)p->values[i]);
+        at += (size_t)snprintf(s + at, cap - at, "\": ");
+        at += format_float(s + at, cap - at, p->values[i]);
     }
     snprintf(s + at, cap - at, "\n}\n");
     return s;
