@@ -706,19 +706,25 @@ static void ramp_lookup(const float (*table)[4], int size, bool interpolate, flo
 
 static void color_ramp_kernel(const sg_kernel_args *a)
 {
-    const sg_color_ramp *ramp = a->ramp;
     float *color = a->out[0], *alpha = a->out[1];
     const int n = a->n;
     if (!color && !alpha)
         return;
+
+    /* Blender stores a stop's RGBA clamped below at 0 (RNA range [0, inf)): a negative
+     * channel written in the JSON is 0 in Blender's ramp. Above 1 is kept. */
+    sg_color_ramp ramp = *a->ramp;
+    for (int s = 0; s < ramp.n && s < SG_RAMP_MAX_ELEMENTS; s++)
+        for (int ch = 0; ch < 4; ch++)
+            ramp.color[s][ch] = fmaxf(ramp.color[s][ch], 0.0f);
 
     /* Blender 3.x: 256 entries at i / 255; 4.x: 257 at i / 256. Rebuilt per batch (a few
      * microseconds) so the kernel stays a pure function of its arguments. */
     const int steps = a->blender == SG_BLENDER_3 ? 255 : 256;
     float table[RAMP_TABLE_MAX][4];
     for (int i = 0; i <= steps; i++)
-        ramp_evaluate(ramp, (float)i / (float)steps, table[i]);
-    const bool interpolate = ramp->interpolation != RAMP_CONSTANT;
+        ramp_evaluate(&ramp, (float)i / (float)steps, table[i]);
+    const bool interpolate = ramp.interpolation != RAMP_CONSTANT;
 
     const float *fac = a->in[0];
     for (int i = 0; i < n; i++) {

@@ -201,6 +201,26 @@ RAMP_HUES = [el(0.05, 1.0, 0.1, 0.1), el(0.3, 0.2, 0.3, 1.0), el(0.5, 0.5, 0.5, 
              el(0.6, 0.1, 0.9, 0.3), el(0.8, 0.9, 0.8, 0.1), el(0.95, 0.6, 0.2, 0.2, 0.2)]
 
 
+# Channels outside [0, 1] (Blender clamps the negative ones to 0 when it stores them).
+RAMP_HDR = [el(0.1, 2.5, 0.2, -0.4, 1.0), el(0.35, 0.3, 1.8, 0.6, 3.0),
+            el(0.6, -1.0, 0.5, 4.0, -0.5), el(0.9, 1.2, 1.2, 0.9, 0.7)]
+
+
+def _ramp_32():
+    """32 stops with positions from a fixed quadratic sequence, two of them coincident."""
+    els = []
+    for i in range(32):
+        pos = round((i * i) / (31.0 * 31.0), 6)
+        if i == 17:
+            pos = els[-1]["position"]
+        els.append(el(pos, (i * 7 % 11) / 10.0, (i * 5 % 13) / 12.0, (i * 3 % 7) / 6.0,
+                      (i % 4) / 3.0))
+    return els
+
+
+RAMP_32 = _ramp_32()
+
+
 def ramp_case(name, interpolation, elements, color_mode="RGB", hue="NEAR", socket="Color",
               note=""):
     k = Case()
@@ -232,6 +252,14 @@ def ramp_cases():
     ramp_case("ramp_hsv_alpha", "LINEAR", RAMP_HUES, "HSV", "CCW", socket="Alpha")
     ramp_case("ramp_single_stop", "LINEAR", [el(0.4, 0.3, 0.6, 0.9, 0.5)],
               note="One stop: constant colour.")
+    for interp, mode in (("LINEAR", "RGB"), ("B_SPLINE", "RGB"), ("CARDINAL", "RGB"),
+                         ("LINEAR", "HSV"), ("LINEAR", "HSL")):
+        ramp_case("ramp_hdr_%s_%s" % (interp.lower(), mode.lower()), interp, RAMP_HDR, mode,
+                  "NEAR", note="Stop colours above 1 and below 0: Blender stores negative "
+                  "channels as 0; B_SPLINE and CARDINAL clamp their result to [0, 1].")
+    ramp_case("ramp_32_stops", "EASE", RAMP_32,
+              note="The most stops Blender allows (32), unevenly spaced, two coincident.")
+    ramp_case("ramp_32_stops_constant", "CONSTANT", RAMP_32, socket="Alpha")
 
 
 # ---- Combine / Separate -------------------------------------------------------------------
@@ -301,6 +329,10 @@ def mapping_cases():
     mapping_case("mapping_point_varying_rotation", "POINT", loc,
                  lambda k, a, b: k.xyz(b, a, 0.3), scale,
                  "Rotation linked: (b, a, 0.3) radians.")
+    mapping_case("mapping_texture_large_rotation", "TEXTURE", loc,
+                 lambda k, a, b: k.xyz(k.math("MULTIPLY", a, 25.0), k.math("MULTIPLY", b, -20.0),
+                                       k.math("ADD", a, b)), scale,
+                 "Rotation linked, angles up to 50 radians.")
 
 
 if __name__ == "__main__":
