@@ -314,17 +314,17 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         goto done;
     }
 
-    /* Channel mapping, see imageio.h. More than 4 channels (an EXR with extra layers):
-     * OIIO lists R, G, B, A first, so keep RGBA if the 4th is alpha, else RGB. */
+    /* Channel mapping, see imageio.h. OIIO lists R, G, B, A first and marks alpha, so
+     * "is the 2nd / 4th channel alpha" decides grey+alpha and RGBA; a 4th channel that is
+     * not alpha (an EXR's Z, say) is dropped, like any channel after the 4th. */
     int file_channels, out_channels;
-    switch (info.channels) {
-    case 1: file_channels = 1; out_channels = 1; break;
-    case 2: file_channels = 2; out_channels = 4; break;
-    case 3: file_channels = 3; out_channels = 3; break;
-    case 4: file_channels = 4; out_channels = 4; break;
-    default:
-        file_channels = out_channels = info.alpha_channel == 3 ? 4 : 3;
-        break;
+    if (info.channels == 1 || (info.channels == 2 && info.alpha_channel != 1)) {
+        file_channels = out_channels = 1;
+    } else if (info.channels == 2) {
+        file_channels = 2;
+        out_channels = 4;
+    } else {
+        file_channels = out_channels = info.channels >= 4 && info.alpha_channel == 3 ? 4 : 3;
     }
     /* 8-bit files are read as bytes so that decoding is one table lookup per value and
      * exact; everything else as float (integers scaled to [0,1] by OIIO). */

@@ -39,9 +39,10 @@ void image_free(image *img);
  * 1.0). Any other gamma is treated as sRGB. Alpha is never decoded, and never multiplied
  * or divided: it comes out as stored (straight in PNG/TIFF, premultiplied in EXR).
  *
- * Channels: a 1-, 3- or 4-channel file keeps its count; 2 channels are grey + alpha and
- * become RGBA (Y, Y, Y, A); more than 4 (extra EXR layers) keep R, G, B and A if the 4th
- * channel is alpha, else R, G, B. Images larger than 32768 pixels on a side, deep and
+ * Channels: grey stays 1 channel, RGB 3, RGBA 4; grey + alpha becomes RGBA (Y, Y, Y, A).
+ * Other channels are dropped: a file with more channels (extra EXR layers, Z) gives R, G,
+ * B and A if the 4th channel is alpha, else R, G, B; a 2-channel file whose 2nd channel is
+ * not alpha gives its 1st. Images larger than 32768 pixels on a side, deep and
  * volume images are rejected, as are missing, empty, truncated or corrupt files and
  * folders. Orientation metadata (EXIF) is not applied. */
 int image_read(const char *path, image *img, char *err, size_t errlen);

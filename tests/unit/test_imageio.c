@@ -168,11 +168,12 @@ static uint8_t *put_chunk(uint8_t *p, const char *type, const uint8_t *data, uin
     return put32(p, crc32_png(crc_start, n + 4, 0));
 }
 
-/* 8-bit PNG of colour type 0 (grey), 2 (RGB) or 4 (grey+alpha); gamma_1 adds gAMA = 1.0.
+/* 8- or 16-bit PNG of colour type 0 (grey), 2 (RGB) or 4 (grey+alpha); gamma_1 adds a
+ * gAMA chunk of 1.0; 16-bit samples are big-endian in pixels.
  * pixels may be NULL for a file whose IDAT holds only a zlib header: enough for a reader
  * to accept the header. Returns the byte count written to out. */
-static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, int gamma_1,
-                       const uint8_t *pixels)
+static size_t make_png_depth(uint8_t *out, uint32_t w, uint32_t h, int colour_type,
+                             int bit_depth, int gamma_1, const uint8_t *pixels)
 {
     static const uint8_t signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     int channels = colour_type == 0 ? 1 : colour_type == 4 ? 2 : 3;
@@ -182,7 +183,7 @@ static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, in
     uint8_t ihdr[13];
     put32(ihdr, w);
     put32(ihdr + 4, h);
-    ihdr[8] = 8;
+    ihdr[8] = (uint8_t)bit_depth;
     ihdr[9] = (uint8_t)colour_type;
     ihdr[10] = ihdr[11] = ihdr[12] = 0;
     p = put_chunk(p, "IHDR", ihdr, 13);
@@ -193,7 +194,7 @@ static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, in
     }
     if (pixels) {
         /* zlib stream: header, one stored block of filter-byte-prefixed rows, Adler-32. */
-        size_t row = (size_t)w * channels;
+        size_t row = (size_t)w * channels * (bit_depth / 8);
         size_t raw_n = (row + 1) * h;
         assert_true(raw_n < 65536);
         uint8_t *z = malloc(raw_n + 11);
@@ -225,6 +226,12 @@ static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, in
     }
     p = put_chunk(p, "IEND", NULL, 0);
     return (size_t)(p - out);
+}
+
+static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, int gamma_1,
+                       const uint8_t *pixels)
+{
+    return make_png_depth(out, w, h, colour_type, 8, gamma_1, pixels);
 }
 
 /* A 32 x 32 baseline JPEG (quality 60, noisy gradient): header up to byte 294, scan data
@@ -497,6 +504,64 @@ static void test_png_linear_metadata(void **state)
     }
 }
 
+/* 16-bit files take the float path: scaled to [0,1] by OIIO, then decoded. One ulp of
+ * scaling error grows by at most the decode curve's log slope (2.4), plus its own
+ * rounding: 4 ulp covers it. */
+static void test_png_16bit(void **state)
+{
+    const fixture *f = *state;
+    uint8_t px[5 * 3 * 2], buf[512];
+    const int codes[15] = {0, 1, 2, 100, 2651, 2652, 9000, 30000, 32768, 40000, 50000, 60000,
+                           65000, 65534, 65535};
+    for (int i = 0; i < 15; i++) {
+        px[2 * i] = (uint8_t)(codes[i] >> 8);
+        px[2 * i + 1] = (uint8_t)codes[i];
+    }
+    char path[256], err[512];
+    path_in(f, "deep16.png", path, sizeof path);
+    write_bytes(path, buf, make_png_depth(buf, 5, 1, 2, 16, 0, px));
+    image img = {0};
+    if (image_read(path, &img, err, sizeof err) != 0)
+        fail_msg("%s", err);
+    assert_int_equal(img.channels, 3);
+    for (int i = 0; i < 15; i++) {
+        float expect = (float)srgb_to_linear((float)((double)codes[i] / 65535.0));
+        if (fabsf(img.pixels[i] - expect) > 4.0f * FLT_EPSILON * expect)
+            fail_msg("code %d: read %.9g, want %.9g", codes[i], img.pixels[i], expect);
+    }
+    image_free(&img);
+}
+
+/* Radiance HDR is float data: linear as stored, RGBE decoded as mantissa * 2^(e - 136).
+ * Width 4 (< 8) makes the scanlines flat, not run-length encoded. */
+static void test_hdr_is_linear(void **state)
+{
+    const fixture *f = *state;
+    const char header[] = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 4\n";
+    const uint8_t rgbe[16] = {128, 64, 32, 129, 200, 10, 1, 120, 255, 255, 255, 140,
+                              0, 0, 0, 0};
+    uint8_t buf[128];
+    memcpy(buf, header, sizeof header - 1);
+    memcpy(buf + sizeof header - 1, rgbe, sizeof rgbe);
+    char path[256], err[512];
+    path_in(f, "flat.hdr", path, sizeof path);
+    write_bytes(path, buf, sizeof header - 1 + sizeof rgbe);
+    image img = {0};
+    if (image_read(path, &img, err, sizeof err) != 0)
+        fail_msg("%s", err);
+    assert_int_equal(img.width, 4);
+    assert_int_equal(img.channels, 3);
+    for (int p = 0; p < 4; p++)
+        for (int c = 0; c < 3; c++) {
+            float expect = rgbe[4 * p + 3] ? ldexpf((float)rgbe[4 * p + c], rgbe[4 * p + 3] - 136)
+                                           : 0.0f;
+            if (img.pixels[3 * p + c] != expect)
+                fail_msg("pixel %d channel %d: read %.9g, want %.9g", p, c,
+                         img.pixels[3 * p + c], expect);
+        }
+    image_free(&img);
+}
+
 /* Grey + alpha becomes RGBA with grey decoded in R, G, B and alpha as stored. */
 static void test_grey_alpha_becomes_rgba(void **state)
 {
@@ -646,6 +711,18 @@ static void test_truncated_files(void **state)
         truncate_half(path);
         expect_read_error(path);
     }
+
+    /* Complete but corrupt: one byte changed inside the PNG's image data. */
+    path_in(f, "corrupt.png", path, sizeof path);
+    assert_int_equal(image_write_png(path, &img, err, sizeof err), 0);
+    FILE *fp = fopen(path, "r+b");
+    assert_non_null(fp);
+    assert_int_equal(fseek(fp, (long)(file_size(path) / 2), SEEK_SET), 0);
+    int byte = fgetc(fp);
+    assert_int_equal(fseek(fp, -1, SEEK_CUR), 0);
+    fputc(byte ^ 0x5a, fp);
+    assert_int_equal(fclose(fp), 0);
+    expect_read_error(path);
     image_free(&img);
 
     /* The JPEG reads whole, so it is the cut that fails. */
@@ -771,6 +848,8 @@ int main(void)
         cmocka_unit_test(test_png_round_trip),
         cmocka_unit_test(test_png_linear_metadata),
         cmocka_unit_test(test_grey_alpha_becomes_rgba),
+        cmocka_unit_test(test_png_16bit),
+        cmocka_unit_test(test_hdr_is_linear),
         cmocka_unit_test(test_resize_constant),
         cmocka_unit_test(test_resize_gradient_mean),
         cmocka_unit_test(test_resize_filter_shape),
