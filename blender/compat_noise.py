@@ -25,7 +25,7 @@ What Blender 3.4 cannot express (noise_node_for_blender3 raises Blender3Unsuppor
 - FBM with normalize on and Lacunarity != 2 (3.4's Noise has no Lacunarity; the
   normalization of a Musgrave fBM would need extra Math nodes), or Lacunarity linked.
 - FBM with normalize on and Roughness outside [0, 1] (3.4 clamps it, 4.x does not clamp
-  above 1).
+  above 1). A linked Roughness is accepted: it matches while its values stay in [0, 1].
 - Musgrave translations with Distortion != 0 or linked, with the Color output linked
   (Musgrave has only Fac), with Detail > 14 (4.x Detail 15 would need Musgrave 16; 3.4
   clamps at 15), or with Detail, Roughness or Lacunarity linked (Detail + 1 and
