@@ -11,7 +11,7 @@
 
 /* Reads a C-order .npy of dtype '<f4' or '|u1' with 1 to 4 dimensions. Returns malloc'd
  * data (floats, or bytes for u1) and the shape, or NULL. */
-static void *npy_read(const char *path, int *ndim, long shape[4], int *is_u8)
+static inline void *npy_read(const char *path, int *ndim, long shape[4], int *is_u8)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
@@ -63,7 +63,7 @@ static void *npy_read(const char *path, int *ndim, long shape[4], int *is_u8)
 }
 
 /* Worst over layers of max |a - b| / max |b| within each Gram layer of one row. */
-static double worst_layer_error(const float *a, const float *b, const size_t offsets[6])
+static inline double worst_layer_error(const float *a, const float *b, const size_t offsets[6])
 {
     double worst = 0.0;
     for (int l = 0; l < 5; l++) {

@@ -1,0 +1,226 @@
+/*
+ * nn layers: the fast convolutions (Winograd and im2col, every tail and fallback) against
+ * a double-precision direct convolution; pooling, Gram and preprocessing against their
+ * definitions; the random initialisation's determinism and scale.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+#include <unistd.h>
+
+#include "nn/conv3x3.h"
+#include "test_nn_util.h"
+
+static float frand(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return (float)(*s >> 8) * 0x1p-24f * 2.0f - 1.0f;
+}
+
+/* Runs one conv through the chunked engine and checks every output against the exact
+ * sum, within 1e-6 (about 16 float ulps) of the sum of the magnitudes of its terms: fp32
+ * sums of a few hundred terms in random order err by a few ulps of that sum, and the
+ * Winograd transforms add a few exact-coefficient roundings. */
+static void check_conv(int N, int C, int K, int H, int W, int winograd, size_t budget)
+{
+    uint32_t seed = (uint32_t)(N * 131 + C * 17 + K * 7 + H * 3 + W);
+    size_t nin = (size_t)N * C * H * W, nout = (size_t)N * K * H * W;
+    float *in = malloc(nin * sizeof(float)), *w = malloc((size_t)K * C * 9 * sizeof(float));
+    float *b = malloc((size_t)K * sizeof(float)), *out = malloc(nout * sizeof(float));
+    float *U = malloc(16 * (size_t)K * C * sizeof(float));
+    for (size_t i = 0; i < nin; i++)
+        in[i] = frand(&seed);
+    for (size_t i = 0; i < (size_t)K * C * 9; i++)
+        w[i] = frand(&seed) * 0.3f;
+    for (int k = 0; k < K; k++)
+        b[k] = frand(&seed);
+    winograd_weights(U, w, K, C);
+    conv_layer L = {.in = in, .out = out, .N = N, .C = C, .K = K, .H = H, .W = W,
+                    .winograd = winograd, .U = U, .weight = w, .bias = b};
+    L.chunk = conv_chunk_size(winograd, C, K, W, budget);
+    float *scratch = malloc(conv_scratch_floats(winograd, C, K, W, L.chunk) * sizeof(float));
+    for (size_t c = 0; c < conv_chunk_count(&L); c++)
+        conv_run_chunk(&L, c, scratch);
+
+    double worst = 0.0;
+    for (int n = 0; n < N; n++)
+        for (int k = 0; k < K; k++)
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    double s = b[k], mag = fabs(b[k]);
+                    for (int c = 0; c < C; c++)
+                        for (int dy = -1; dy <= 1; dy++)
+                            for (int dx = -1; dx <= 1; dx++) {
+                                int yy = y + dy, xx = x + dx;
+                                if (yy < 0 || yy >= H || xx < 0 || xx >= W)
+                                    continue;
+                                double t = (double)w[((size_t)k * C + c) * 9 + (dy + 1) * 3 + dx + 1] *
+                                           in[(((size_t)n * C + c) * H + yy) * W + xx];
+                                s += t;
+                                mag += fabs(t);
+                            }
+                    double got = out[(((size_t)n * K + k) * H + y) * W + x];
+                    worst = fmax(worst, fabs(got - s) / mag);
+                }
+    printf("conv N%d C%d K%d %dx%d %s chunk %d: worst error / sum|terms| = %.3g\n", N, C, K, H,
+           W, winograd ? "winograd" : "im2col", L.chunk, worst);
+    assert_true(worst <= 1e-6);
+    free(in);
+    free(w);
+    free(b);
+    free(out);
+    free(U);
+    free(scratch);
+}
+
+static void test_winograd_shapes(void **state)
+{
+    check_conv(2, 16, 24, 9, 37, 1, 1 << 20);  /* odd plane: partial tiles at both edges */
+    check_conv(1, 16, 16, 6, 70, 1, 1 << 20);  /* 35 tiles a row: two 16-groups + tail */
+    check_conv(2, 8, 16, 5, 5, 1, 1);          /* one tile row per chunk */
+    check_conv(2, 32, 8, 4, 4, 1, 1 << 22);    /* whole images per chunk */
+    check_conv(1, 12, 12, 7, 7, 1, 1 << 20);   /* K not a multiple of 8: sgemm fallback */
+    check_conv(1, 64, 64, 20, 20, 1, 1 << 20); /* T = 10 * rows: 48/32/16 blocks */
+}
+
+static void test_im2col_shapes(void **state)
+{
+    check_conv(2, 3, 16, 9, 13, 0, 1 << 20);
+    check_conv(2, 5, 8, 2, 2, 0, 1);
+}
+
+static void test_reference_conv_matches_definition(void **state)
+{
+    /* One channel, a centre-tap filter plus a right-neighbour tap: out = 2 x + 3 x_right + 1. */
+    float in[12], w[9] = {0, 0, 0, 0, 2, 3, 0, 0, 0}, b[1] = {1}, out[12];
+    for (int i = 0; i < 12; i++)
+        in[i] = (float)i;
+    conv3x3_forward_reference(out, in, w, b, 1, 1, 1, 3, 4);
+    for (int y = 0; y < 3; y++)
+        for (int x = 0; x < 4; x++) {
+            float right = x + 1 < 4 ? in[y * 4 + x + 1] : 0.0f;
+            assert_float_equal(out[y * 4 + x], 2 * in[y * 4 + x] + 3 * right + 1, 0);
+        }
+}
+
+static void test_pooling(void **state)
+{
+    /* 7x7 plane of 0..48: avg3/stride 3 gives 2x2 means of 3x3 blocks (floor mode drops the
+     * last row and column); max2 gives 3x3. */
+    float in[49], out[9];
+    for (int i = 0; i < 49; i++)
+        in[i] = (float)i;
+    avgpool_forward(out, in, 1, 1, 7, 7, 3, 3);
+    assert_float_equal(out[0], 8.0f, 1e-6);  /* centre of rows 0-2, cols 0-2 = 1*7+1 */
+    assert_float_equal(out[1], 11.0f, 1e-6); /* cols 3-5 */
+    assert_float_equal(out[2], 29.0f, 1e-6); /* rows 3-5 */
+    maxpool_forward(out, in, 1, 1, 7, 7, 2, 2);
+    assert_float_equal(out[0], 8.0f, 0);
+    assert_float_equal(out[8], 40.0f, 0); /* rows 4-5, cols 4-5 -> 5*7+5 */
+}
+
+static void test_gram_upper(void **state)
+{
+    /* f = [[1,2,3],[4,5,6]]: f f^T / 3 = [[14,32],[32,77]] / 3, upper triangle row-major. */
+    float f[6] = {1, 2, 3, 4, 5, 6}, out[3], scratch[4];
+    gram_upper_forward(out, f, 2, 3, scratch);
+    assert_float_equal(out[0], 14.0f / 3, 1e-6);
+    assert_float_equal(out[1], 32.0f / 3, 1e-5);
+    assert_float_equal(out[2], 77.0f / 3, 1e-5);
+}
+
+static void test_preprocess_crop_clamp_normalise(void **state)
+{
+    /* 230x226 RGB: crop starts at ((226-224)/2, (230-224)/2) = (1, 3). */
+    int w = 230, h = 226;
+    float *px = malloc((size_t)w * h * 3 * sizeof(float)), *out = malloc(3 * 224 * 224 * 4);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++)
+                px[((size_t)y * w + x) * 3 + c] = (float)(x + y) / 100.0f - 1.0f + 0.1f * c;
+    assert_int_equal(vgg_preprocess(out, px, w, h, 3), 0);
+    const float mean[3] = {0.485f, 0.456f, 0.406f}, sd[3] = {0.229f, 0.224f, 0.225f};
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < 224; y += 37)
+            for (int x = 0; x < 224; x += 41) {
+                float v = px[((size_t)(y + 1) * w + x + 3) * 3 + c];
+                v = v < 0 ? 0 : v > 1 ? 1 : v;
+                assert_float_equal(out[(c * 224 + y) * 224 + x], (v - mean[c]) / sd[c], 1e-6);
+            }
+    assert_int_equal(vgg_preprocess(out, px, 200, 300, 3), -1); /* too narrow */
+    free(px);
+    free(out);
+}
+
+static void test_random_init(void **state)
+{
+    vgg19 a, b;
+    const int width[5] = {8, 16, 16, 16, 16};
+    assert_int_equal(vgg19_init_random(&a, width, 7), 0);
+    assert_int_equal(vgg19_init_random(&b, width, 7), 0);
+    for (int l = 0; l < VGG_CONV_LAYERS; l++)
+        assert_memory_equal(a.weight[l], b.weight[l],
+                            (size_t)a.cout[l] * a.cin[l] * 9 * sizeof(float));
+    /* He scale: sample variance of the largest layer within 10% of 2 / (9 cin). */
+    int l = 15;
+    size_t n = (size_t)a.cout[l] * a.cin[l] * 9;
+    double s2 = 0;
+    for (size_t i = 0; i < n; i++)
+        s2 += (double)a.weight[l][i] * a.weight[l][i];
+    double want = 2.0 / (9.0 * a.cin[l]);
+    assert_true(fabs(s2 / n / want - 1.0) < 0.1);
+    vgg19_free(&b);
+    assert_int_equal(vgg19_init_random(&b, width, 8), 0);
+    assert_true(memcmp(a.weight[0], b.weight[0], 8 * 3 * 9 * sizeof(float)) != 0);
+    vgg19_free(&a);
+    vgg19_free(&b);
+}
+
+static void test_npy_roundtrip(void **state)
+{
+    char path[] = "/tmp/test_nn_npy_XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    float data[6] = {1, 2, 3, 4, 5, -6.5f};
+    char err[256];
+    assert_int_equal(nn_npy_write_f32(path, data, 2, 3, err, sizeof err), 0);
+    int ndim, u8;
+    long shape[4];
+    float *back = npy_read(path, &ndim, shape, &u8);
+    assert_non_null(back);
+    assert_int_equal(ndim, 2);
+    assert_int_equal(shape[0], 2);
+    assert_int_equal(shape[1], 3);
+    assert_memory_equal(back, data, sizeof data);
+    free(back);
+    /* A writer that does not get all its rows leaves nothing behind. */
+    remove(path);
+    nn_npy_writer *w = nn_npy_begin(path, 3, 3, err, sizeof err);
+    assert_non_null(w);
+    assert_int_equal(nn_npy_append(w, data, 2, err, sizeof err), 0);
+    assert_int_equal(nn_npy_commit(w, err, sizeof err), -1);
+    assert_non_null(strstr(err, "2 of 3 rows"));
+    assert_int_equal(access(path, F_OK), -1);
+    /* Unwritable place: an error naming it. */
+    assert_int_equal(nn_npy_write_f32("/nonexistent-dir/x.npy", data, 2, 3, err, sizeof err), -1);
+    assert_non_null(strstr(err, "/nonexistent-dir/x.npy"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_winograd_shapes),
+        cmocka_unit_test(test_im2col_shapes),
+        cmocka_unit_test(test_reference_conv_matches_definition),
+        cmocka_unit_test(test_pooling),
+        cmocka_unit_test(test_gram_upper),
+        cmocka_unit_test(test_preprocess_crop_clamp_normalise),
+        cmocka_unit_test(test_random_init),
+        cmocka_unit_test(test_npy_roundtrip),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
