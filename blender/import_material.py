@@ -169,9 +169,16 @@ def _apply_color_ramp(node, ramp, source, where):
     first = cr.elements[0]
     first.position = elements[0]["position"]
     first.color = _rgba(elements[0]["color"])
+    made = [first]
     for e in elements[1:]:
         el = cr.elements.new(e["position"])
         el.color = _rgba(e["color"])
+        made.append(el)
+    # Blender clamps element colours to >= 0 and positions to [0, 1].
+    for k, (el, e) in enumerate(zip(made, elements)):
+        what = "color_ramp.elements[%d]" % k
+        _check_stored(el.position, e["position"], source, where, what + ".position")
+        _check_stored(el.color, _rgba(e["color"]), source, where, what + ".color")
 
 
 def _rgba(c):
