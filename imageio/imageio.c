@@ -278,6 +278,39 @@ static void convert_pixels(const void *raw, int as_uint8, int file_channels, int
     }
 }
 
+/* Turn img the way EXIF orientation o (2..8) says a viewer shows it. For each displayed
+ * pixel (dx, dy) the stored pixel is (sx, sy); orientations 5..8 swap width and height.
+ * E.g. 6 ("row 0 is the visual right side, column 0 the visual top") is a quarter turn
+ * clockwise: displayed (0, 0) is stored (0, H - 1). Returns 0, or -1 out of memory. */
+static int apply_orientation(image *img, int o)
+{
+    const int w = img->width, h = img->height, ch = img->channels;
+    const int swap = o >= 5;
+    image out;
+    if (image_alloc(&out, swap ? h : w, swap ? w : h, ch) != 0)
+        return -1;
+    for (int dy = 0; dy < out.height; dy++)
+        for (int dx = 0; dx < out.width; dx++) {
+            int sx, sy;
+            switch (o) {
+            case 2: sx = w - 1 - dx; sy = dy; break;
+            case 3: sx = w - 1 - dx; sy = h - 1 - dy; break;
+            case 4: sx = dx; sy = h - 1 - dy; break;
+            case 5: sx = dy; sy = dx; break;
+            case 6: sx = dy; sy = h - 1 - dx; break;
+            case 7: sx = w - 1 - dy; sy = h - 1 - dx; break;
+            case 8: sx = w - 1 - dy; sy = dx; break;
+            default: sx = dx; sy = dy; break;
+            }
+            memcpy(out.pixels + ((size_t)dy * (size_t)out.width + (size_t)dx) * (size_t)ch,
+                   img->pixels + ((size_t)sy * (size_t)w + (size_t)sx) * (size_t)ch,
+                   (size_t)ch * sizeof(float));
+        }
+    image_free(img);
+    *img = out;
+    return 0;
+}
+
 int image_read(const char *path, image *img, char *err, size_t errlen)
 {
     memset(img, 0, sizeof *img);
@@ -342,6 +375,11 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         goto done;
     }
     convert_pixels(raw, as_uint8, file_channels, decode, img);
+    if (info.orientation != 1 && apply_orientation(img, info.orientation) != 0) {
+        set_error(err, errlen, "%s: out of memory for a %d x %d image", path, info.width,
+                  info.height);
+        goto done;
+    }
     status = 0;
 done:
     free(raw);

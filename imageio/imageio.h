@@ -44,7 +44,8 @@ void image_free(image *img);
  * B and A if the 4th channel is alpha, else R, G, B; a 2-channel file whose 2nd channel is
  * not alpha gives its 1st. Images larger than 32768 pixels on a side, deep and
  * volume images are rejected, as are missing, empty, truncated or corrupt files and
- * folders. Orientation metadata (EXIF) is not applied. */
+ * folders. EXIF Orientation (photos) is applied: pixels come out as a viewer shows them,
+ * so width and height are swapped for quarter turns. */
 int image_read(const char *path, image *img, char *err, size_t errlen);
 
 typedef enum image_exr_pixel { IMAGE_EXR_HALF, IMAGE_EXR_FLOAT } image_exr_pixel;

@@ -96,6 +96,8 @@ extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info
             info->bits = stored_bits;
         info->is_deep = spec.deep ? 1 : 0;
         info->metadata_linear = says_linear(spec) ? 1 : 0;
+        int orientation = spec.get_int_attribute("Orientation", 1);
+        info->orientation = orientation >= 1 && orientation <= 8 ? orientation : 1;
         std::snprintf(info->format_name, sizeof info->format_name, "%s", input->format_name());
         oiio_reader *reader = new oiio_reader;
         reader->input = std::move(input);

@@ -26,6 +26,7 @@ typedef struct oiio_image_info {
     int bits;                 /* bits per channel value as stored (8, 16, 32, ...) */
     int is_deep;
     int metadata_linear;      /* oiio:ColorSpace says linear, or oiio:Gamma is 1 */
+    int orientation;          /* EXIF Orientation, 1..8 (1 when absent or invalid) */
     char format_name[32];     /* "png", "openexr", "jpeg", ... */
 } oiio_image_info;
 

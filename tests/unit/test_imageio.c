@@ -169,11 +169,12 @@ static uint8_t *put_chunk(uint8_t *p, const char *type, const uint8_t *data, uin
 }
 
 /* 8- or 16-bit PNG of colour type 0 (grey), 2 (RGB) or 4 (grey+alpha); gamma_1 adds a
- * gAMA chunk of 1.0; 16-bit samples are big-endian in pixels.
+ * gAMA chunk of 1.0; orientation (1..8) adds an eXIf chunk; 16-bit samples are big-endian
+ * in pixels.
  * pixels may be NULL for a file whose IDAT holds only a zlib header: enough for a reader
  * to accept the header. Returns the byte count written to out. */
-static size_t make_png_depth(uint8_t *out, uint32_t w, uint32_t h, int colour_type,
-                             int bit_depth, int gamma_1, const uint8_t *pixels)
+static size_t make_png_full(uint8_t *out, uint32_t w, uint32_t h, int colour_type,
+                            int bit_depth, int gamma_1, int orientation, const uint8_t *pixels)
 {
     static const uint8_t signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     int channels = colour_type == 0 ? 1 : colour_type == 4 ? 2 : 3;
@@ -191,6 +192,12 @@ static size_t make_png_depth(uint8_t *out, uint32_t w, uint32_t h, int colour_ty
         uint8_t gama[4];
         put32(gama, 100000);
         p = put_chunk(p, "gAMA", gama, 4);
+    }
+    if (orientation) {
+        /* eXIf: a big-endian TIFF header and one IFD holding Orientation (0x0112, SHORT). */
+        uint8_t exif[26] = {'M', 'M', 0, 42, 0, 0, 0, 8, 0, 1, 0x01, 0x12, 0, 3, 0, 0, 0, 1,
+                            0, (uint8_t)orientation, 0, 0, 0, 0, 0, 0};
+        p = put_chunk(p, "eXIf", exif, sizeof exif);
     }
     if (pixels) {
         /* zlib stream: header, one stored block of filter-byte-prefixed rows, Adler-32. */
@@ -231,7 +238,7 @@ static size_t make_png_depth(uint8_t *out, uint32_t w, uint32_t h, int colour_ty
 static size_t make_png(uint8_t *out, uint32_t w, uint32_t h, int colour_type, int gamma_1,
                        const uint8_t *pixels)
 {
-    return make_png_depth(out, w, h, colour_type, 8, gamma_1, pixels);
+    return make_png_full(out, w, h, colour_type, 8, gamma_1, 0, pixels);
 }
 
 /* A 32 x 32 baseline JPEG (quality 60, noisy gradient): header up to byte 294, scan data
@@ -519,7 +526,7 @@ static void test_png_16bit(void **state)
     }
     char path[256], err[512];
     path_in(f, "deep16.png", path, sizeof path);
-    write_bytes(path, buf, make_png_depth(buf, 5, 1, 2, 16, 0, px));
+    write_bytes(path, buf, make_png_full(buf, 5, 1, 2, 16, 0, 0, px));
     image img = {0};
     if (image_read(path, &img, err, sizeof err) != 0)
         fail_msg("%s", err);
@@ -560,6 +567,55 @@ static void test_hdr_is_linear(void **state)
                          img.pixels[3 * p + c], expect);
         }
     image_free(&img);
+}
+
+/* EXIF orientation, checked against the standard's wording: for each value, the visual
+ * sides of the stored row 0 and column 0. Corners: 0 top-left, 1 top-right, 2 bottom-left,
+ * 3 bottom-right of the displayed image. */
+static void test_exif_orientation(void **state)
+{
+    const fixture *f = *state;
+    enum { TL, TR, BL, BR };
+    /* where stored (0, 0) and stored (W-1, 0) are displayed */
+    const int corners[9][2] = {
+        {0, 0},
+        {TL, TR}, /* 1: row 0 top, column 0 left */
+        {TR, TL}, /* 2: row 0 top, column 0 right */
+        {BR, BL}, /* 3: row 0 bottom, column 0 right */
+        {BL, BR}, /* 4: row 0 bottom, column 0 left */
+        {TL, BL}, /* 5: row 0 left, column 0 top */
+        {TR, BR}, /* 6: row 0 right, column 0 top */
+        {BR, TR}, /* 7: row 0 right, column 0 bottom */
+        {BL, TL}, /* 8: row 0 left, column 0 bottom */
+    };
+    const int w = 3, h = 2;
+    uint8_t px[3 * 2 * 3], buf[512];
+    for (int i = 0; i < (int)sizeof px; i++)
+        px[i] = (uint8_t)(10 + 13 * i);
+    char path[256], err[512];
+    for (int o = 1; o <= 8; o++) {
+        path_in(f, "oriented.png", path, sizeof path);
+        write_bytes(path, buf, make_png_full(buf, (uint32_t)w, (uint32_t)h, 2, 8, 0, o, px));
+        image img = {0};
+        if (image_read(path, &img, err, sizeof err) != 0)
+            fail_msg("%s", err);
+        int dw = o >= 5 ? h : w, dh = o >= 5 ? w : h;
+        assert_int_equal(img.width, dw);
+        assert_int_equal(img.height, dh);
+        const int stored[2] = {0, w - 1}; /* x of the two stored pixels, both in row 0 */
+        for (int k = 0; k < 2; k++) {
+            int corner = corners[o][k];
+            int dx = (corner == TR || corner == BR) ? dw - 1 : 0;
+            int dy = (corner == BL || corner == BR) ? dh - 1 : 0;
+            for (int c = 0; c < 3; c++) {
+                float expect = srgb_to_linear((float)px[3 * stored[k] + c] / 255.0f);
+                if (img.pixels[3 * (dy * dw + dx) + c] != expect)
+                    fail_msg("orientation %d: stored (%d, 0) not at displayed (%d, %d)", o,
+                             stored[k], dx, dy);
+            }
+        }
+        image_free(&img);
+    }
 }
 
 /* Grey + alpha becomes RGBA with grey decoded in R, G, B and alpha as stored. */
@@ -849,6 +905,7 @@ int main(void)
         cmocka_unit_test(test_png_linear_metadata),
         cmocka_unit_test(test_grey_alpha_becomes_rgba),
         cmocka_unit_test(test_png_16bit),
+        cmocka_unit_test(test_exif_orientation),
         cmocka_unit_test(test_hdr_is_linear),
         cmocka_unit_test(test_resize_constant),
         cmocka_unit_test(test_resize_gradient_mean),
