@@ -168,6 +168,17 @@ def mix_cases():
                 "Legacy MixRGB %s, use_clamp %s: Cycles clamps this node's factor to [0, 1] "
                 "always (factor sweeps [-0.5, 1.5))." % (blend, use_clamp))
 
+    k = Case()
+    a = k.sx(-0.25, 1.0 / 64)
+    fac = k.diagonal(-0.5, 1.0 / 128)
+    n = k.node("ShaderNodeMixRGB", {"blend_type": "ADD", "use_alpha": True})
+    k.set(n, "Fac", fac)
+    k.set(n, "Color1", k.xyz(a, 0.25, 0.5))
+    k.set(n, "Color2", [0.9, 0.2, 0.1, 0.3])
+    k.write("mixrgb_use_alpha", (n, "Color"),
+            "Legacy MixRGB ADD with use_alpha and an unlinked Color2 of alpha 0.3: Cycles "
+            "has no alpha in colour values and ignores use_alpha.")
+
 
 # ---- Invert ---------------------------------------------------------------------------
 
