@@ -186,6 +186,23 @@ static void test_ramp_hsv_far(void **state)
     assert_float_equal(out_at(&c, "Color", 0, 2), 1.0f, 1e-3f);
 }
 
+/* Blender stores ramp colours clamped below at 0: a negative channel acts as 0. */
+static void test_ramp_negative_colour_is_zero(void **state)
+{
+    (void)state;
+    sg_color_ramp ramp = two_stop_ramp(2, 1.0f);
+    ramp.color[0][0] = -2.0f;
+    ramp.color[1][0] = -1.0f;
+    ramp.color[1][1] = 3.0f;
+    call c;
+    call_init(&c, "ShaderNodeValToRGB", 1);
+    c.ramp = &ramp;
+    set_input(&c, "Fac", 0, 0.5f, 0, 0);
+    run(&c);
+    assert_float_equal(out_at(&c, "Color", 0, 0), 0.0f, 0.0f);
+    assert_float_equal(out_at(&c, "Color", 0, 1), 1.5f, 1e-6f);
+}
+
 /* ---- Mix ---------------------------------------------------------------------------- */
 
 /* The new Mix node leaves the factor alone when clamp_factor is off (extrapolates);
@@ -337,6 +354,7 @@ int main(void)
         cmocka_unit_test(test_ramp_constant_step),
         cmocka_unit_test(test_ramp_linear_identity),
         cmocka_unit_test(test_ramp_hsv_far),
+        cmocka_unit_test(test_ramp_negative_colour_is_zero),
         cmocka_unit_test(test_mix_factor_clamping),
         cmocka_unit_test(test_mix_vector_non_uniform),
         cmocka_unit_test(test_invert),
