@@ -159,8 +159,10 @@ static int check_writable_image(const char *path, const image *img, char *err, s
  * Reading
  */
 
-/* The size limit protects against a corrupt or hostile header asking for terabytes. */
+/* The limits protect against a corrupt or hostile header asking for gigabytes: 32768 on a
+ * side, and 2^28 pixels (a 16384 x 16384 image, 4 GiB as RGBA floats) in all. */
 #define IMAGE_MAX_SIDE 32768
+#define IMAGE_MAX_PIXELS ((size_t)1 << 28)
 
 /* Reject what we cannot or will not read before touching the file with OIIO: a FIFO would
  * block forever, and missing files and folders get a plainer message than OIIO's. */
@@ -340,6 +342,11 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         info.height > IMAGE_MAX_SIDE) {
         set_error(err, errlen, "%s: image size %d x %d is outside 1..%d per side", path,
                   info.width, info.height, IMAGE_MAX_SIDE);
+        goto done;
+    }
+    if ((size_t)info.width * (size_t)info.height > IMAGE_MAX_PIXELS) {
+        set_error(err, errlen, "%s: image size %d x %d is more than the %zu pixels accepted",
+                  path, info.width, info.height, IMAGE_MAX_PIXELS);
         goto done;
     }
     if (info.channels < 1) {

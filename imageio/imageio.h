@@ -42,10 +42,12 @@ void image_free(image *img);
  * Channels: grey stays 1 channel, RGB 3, RGBA 4; grey + alpha becomes RGBA (Y, Y, Y, A).
  * Other channels are dropped: a file with more channels (extra EXR layers, Z) gives R, G,
  * B and A if the 4th channel is alpha, else R, G, B; a 2-channel file whose 2nd channel is
- * not alpha gives its 1st. Images larger than 32768 pixels on a side, deep and
- * volume images are rejected, as are missing, empty, truncated or corrupt files and
- * folders. EXIF Orientation (photos) is applied: pixels come out as a viewer shows them,
- * so width and height are swapped for quarter turns. */
+ * not alpha gives its 1st. EXIF Orientation (photos) is applied: pixels come out as a
+ * viewer shows them, so width and height are swapped for quarter turns.
+ *
+ * Rejected with an error: images over 32768 pixels on a side or 2^28 pixels in all
+ * (16384 x 16384), deep and volume images, and missing, empty, truncated or corrupt files
+ * and folders. */
 int image_read(const char *path, image *img, char *err, size_t errlen);
 
 typedef enum image_exr_pixel { IMAGE_EXR_HALF, IMAGE_EXR_FLOAT } image_exr_pixel;
@@ -73,7 +75,8 @@ int image_write_png(const char *path, const image *img, char *err, size_t errlen
 /* Resample to width x height with a separable triangle (tent) filter whose support
  * widens with the scale factor when shrinking (area-correct), bilinear when enlarging.
  * Pixel centres map to pixel centres with the image edges aligned; taps outside the image
- * are dropped and the weights renormalised. Returns 0, or -1 (out of memory, or an empty
+ * are dropped and the weights renormalised. Channels are filtered independently (alpha is
+ * not used as a weight). Returns 0, or -1 (out of memory, or an empty
  * source or target size); dst is then zeroed. */
 int image_resize(const image *src, int width, int height, image *dst);
 

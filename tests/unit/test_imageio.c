@@ -826,6 +826,12 @@ static void test_not_images(void **state)
     char err[512];
     assert_int_equal(image_read(path, &img, err, sizeof err), -1);
     assert_non_null(strstr(err, "32768"));
+    /* each side acceptable, 4e8 pixels in all is not */
+    path_in(f, "big.png", path, sizeof path);
+    write_bytes(path, buf, make_png(buf, 20000, 20000, 0, 0, NULL));
+    expect_read_error(path);
+    assert_int_equal(image_read(path, &img, err, sizeof err), -1);
+    assert_non_null(strstr(err, "pixels accepted"));
 }
 
 /* Failed writes: nothing at the target, no temporary file left anywhere. */
