@@ -578,8 +578,8 @@ static void copy4(float dst[4], const float src[4])
 }
 
 /*
- * The ramp's RGBA at `in`, as Blender's BKE_colorband_evaluate computes it. The stops are
- * sorted by position. Notes on what it does, since it is not what one would guess:
+ * The ramp's RGBA at `in`, as Blender's BKE_colorband_evaluate computes it, given
+ * a = ramp_span(ramp, in, 0). The stops are sorted by position. Notes on what it does, since it is not what one would guess:
  *  - HSV and HSL ramps ignore the interpolation setting and blend linearly (only the hue
  *    path is configurable); but the Cycles lookup still treats CONSTANT as "do not
  *    interpolate the table".
@@ -590,7 +590,17 @@ static void copy4(float dst[4], const float src[4])
  *  - CARDINAL and B_SPLINE reach one stop further on each side (repeating the end stops)
  *    and clamp the result to [0, 1].
  */
-static void ramp_evaluate(const sg_color_ramp *ramp, float in, float out[4])
+/* Index of the first stop strictly right of `in`, searching from `from` (a lower bound:
+ * for increasing `in` the index never decreases, which the table bake exploits). */
+static int ramp_span(const sg_color_ramp *ramp, float in, int from)
+{
+    int a = from;
+    while (a < ramp->n && !(ramp->position[a] > in))
+        a++;
+    return a;
+}
+
+static void ramp_evaluate(const sg_color_ramp *ramp, float in, int a, float out[4])
 {
     const int n = ramp->n;
     if (n <= 0) {
@@ -604,10 +614,6 @@ static void ramp_evaluate(const sg_color_ramp *ramp, float in, float out[4])
         copy4(out, ramp->color[0]);
         return;
     }
-
-    int a = 0;
-    while (a < n && !(ramp->position[a] > in))
-        a++;
 
     /* right/left as position + colour; the end copies are local. */
     float right_pos, left_pos;
@@ -722,8 +728,11 @@ static void color_ramp_kernel(const sg_kernel_args *a)
      * microseconds) so the kernel stays a pure function of its arguments. */
     const int steps = a->blender == SG_BLENDER_3 ? 255 : 256;
     float table[RAMP_TABLE_MAX][4];
-    for (int i = 0; i <= steps; i++)
-        ramp_evaluate(&ramp, (float)i / (float)steps, table[i]);
+    for (int i = 0, span = 0; i <= steps; i++) {
+        float x = (float)i / (float)steps;
+        span = ramp_span(&ramp, x, span);
+        ramp_evaluate(&ramp, x, span, table[i]);
+    }
     const bool interpolate = ramp.interpolation != RAMP_CONSTANT;
 
     const float *fac = a->in[0];
