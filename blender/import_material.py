@@ -108,9 +108,11 @@ def _f32(x):
 
 
 def _check_stored(stored, wanted, source, where, what):
-    """Blender silently clamps values to a socket's hard range (colours to >= 0, Noise
-    Detail to <= 15, ...): a graph that needs a value Blender cannot hold would render
-    differently from what it says, so refuse it."""
+    """Blender silently clamps values to a socket's hard range (colours, of sockets and
+    of colour-ramp stops, to >= 0; ramp positions to [0, 1]; ...), so the material it
+    holds is not quite what the graph says. Strict builds refuse that; others build
+    Blender's clamped material (which the evaluator must reproduce) and record a warning.
+    `source` is the BuildContext."""
     got = list(stored) if hasattr(stored, "__len__") else [stored]
     want = list(wanted) if isinstance(wanted, (list, tuple)) else [wanted] * len(got)
     for k, (g, w) in enumerate(zip(got, want)):
@@ -120,10 +122,15 @@ def _check_stored(stored, wanted, source, where, what):
         else:
             ok = _f32(g) == _f32(w)
         if not ok:
-            _fail(source, where, "%s: Blender %s stores %r where the graph says %r (outside "
-                  "the socket's range); choose a value Blender can hold"
-                  % (what, bpy.app.version_string, tuple(got) if len(got) > 1 else got[0],
-                     wanted))
+            msg = ("%s: Blender %s stores %r where the graph says %r (clamped to the "
+                   "socket's range)" % (what, bpy.app.version_string,
+                                        tuple(got) if len(got) > 1 else got[0], wanted))
+            if getattr(source, "strict", True):
+                _fail(source, where, msg)
+            source.warnings.append("%s: %s: %s" % (source, where, msg))
+            print("import_material: warning: %s: %s: %s" % (source, where, msg),
+                  file=sys.stderr)
+            return
 
 
 def _new_interface_socket(tree, spec, in_out, major, source, where):
@@ -309,10 +316,27 @@ def _group_order(groups, source):
     return order
 
 
-def build_material(data, major=None, source="<json>", name=None):
-    """Create and return a new bpy material built from the graph dict `data`."""
+class BuildContext:
+    """What the builders pass around as `source`: the file name for messages (str()),
+    whether clamped values are errors, and the warnings collected."""
+
+    def __init__(self, source, strict, warnings):
+        self.source = source
+        self.strict = strict
+        self.warnings = warnings
+
+    def __str__(self):
+        return str(self.source)
+
+
+def build_material(data, major=None, source="<json>", name=None, strict=False,
+                   warnings=None):
+    """Create and return a new bpy material built from the graph dict `data`.
+    strict: refuse values Blender would clamp (else they are clamped, and a message is
+    appended to `warnings` if given, and printed)."""
     if major is None:
         major = blender_major()
+    source = BuildContext(source, strict, warnings if warnings is not None else [])
     if data.get("format") != FORMAT:
         _fail(source, "format", "expected %r, got %r" % (FORMAT, data.get("format")))
     gdefs = data.get("groups", {}) or {}
@@ -455,9 +479,11 @@ def _main(argv):
     p.add_argument("material")
     p.add_argument("--save", required=True, help="write this .blend")
     p.add_argument("--scene", action="store_true", help="also build DESIGN.md's scene")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse values Blender would clamp (negative colours, ...)")
     a = p.parse_args(argv)
     data = load_json(a.material)
-    mat = build_material(data, blender_major(), source=a.material)
+    mat = build_material(data, blender_major(), source=a.material, strict=a.strict)
     if a.scene:
         build_scene(bpy.context.scene, mat)
     else:

@@ -112,6 +112,11 @@ def run_batch(version, cases, verbose, check_only=False):
             ran = r.get("version", "")
             for fl in r.get("failures", []):
                 errors[fl["graph"]] = fl["error"]
+            names = {j["graph"]: os.path.relpath(os.path.join(d, "graph.json"), REPO)
+                     for (d, _), j in zip(cases, jobs)}
+            for w in r.get("warnings", []):
+                print("  warning: %s" % w["warning"].replace(w["graph"], names[w["graph"]]),
+                      flush=True)
         if ran is None:
             tail = "\n".join(log.splitlines()[-15:])
             return [(d, "Blender %s did not finish (exit %d):\n%s" % (version, p.returncode,

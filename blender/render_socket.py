@@ -157,10 +157,11 @@ def render_job(scene, plane, job, check_only=False):
     source = job["graph"]
     clear_data()
     data = im.load_json(source)
-    mat = im.build_material(data, im.blender_major(), source=source)
+    warnings = []
+    mat = im.build_material(data, im.blender_major(), source=source, warnings=warnings)
     wire_emission(mat, job["socket"], source)
     if check_only:
-        return
+        return warnings
     plane.data.materials.clear()
     plane.data.materials.append(mat)
     out = job["out"]
@@ -170,6 +171,7 @@ def render_job(scene, plane, job, check_only=False):
     if not os.path.exists(tmp):
         raise RuntimeError("%s: Blender wrote no image to %s" % (source, tmp))
     os.replace(tmp, out)
+    return warnings
 
 
 def main(argv):
@@ -180,10 +182,11 @@ def main(argv):
         spec = json.load(f)
     scene = bpy.context.scene
     plane = setup_scene(scene)
-    failures = []
+    failures, warnings = [], []
     for job in spec["jobs"]:
         try:
-            render_job(scene, plane, job, spec.get("check_only", False))
+            for w in render_job(scene, plane, job, spec.get("check_only", False)):
+                warnings.append({"graph": job["graph"], "warning": w})
             print("render_socket: ok %s -> %s" % (job["socket"], job["out"]), flush=True)
         except Exception as e:  # one bad case must not stop the batch
             msg = str(e) if isinstance(e, im.ImportError_) else traceback.format_exc()
@@ -192,7 +195,8 @@ def main(argv):
                   flush=True)
     if spec.get("results"):
         with open(spec["results"], "w") as f:
-            json.dump({"version": bpy.app.version_string, "failures": failures}, f, indent=1)
+            json.dump({"version": bpy.app.version_string, "failures": failures,
+                       "warnings": warnings}, f, indent=1)
     return 1 if failures else 0
 
 

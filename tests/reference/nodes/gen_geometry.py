@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Reference cases for the structural and geometry nodes: Texture Coordinate, Reroute,
-node groups (nested, interface defaults), Bump, and Principled BSDF inputs read as inputs.
+node groups (nested, interface defaults), Bump, Principled BSDF inputs read as inputs, and
+the values Blender clamps when it stores them (negative colours).
 
 Run from anywhere: python3 tests/reference/nodes/gen_geometry.py
 Then render the missing references with blender/render_node_references.py.
@@ -276,9 +277,37 @@ def principled_cases():
                     "reads Geometry Normal there, as Cycles uses N)")
 
 
+def clamped_value_cases():
+    """Blender stores colour socket values (and colour-ramp stops) clamped to >= 0: its
+    RNA range for colours starts at 0, so a graph asking for a negative colour component
+    gets 0 in Blender. The evaluator must read such a graph as Blender holds it."""
+    g = Graph()
+    p = g.node("ShaderNodeBsdfPrincipled", inputs={"Base Color": [0.5, -0.25, 2.0, 1.0]})
+    g.link((p, "BSDF"), (g.output, "Surface"))
+    write_case("clamp_color_socket_value", g, socket=(p, "Base Color"), versions=BOTH,
+               note="Base Color (0.5, -0.25, 2) is stored by Blender as (0.5, 0, 2)")
+
+    g = Graph()
+    grp = g.group("Tint")
+    c = grp.add_input("C", "RGBA", default=[-1.0, 0.5, 3.0, 1.0])
+    grp.link(c, grp.add_output("Out", "RGBA"))
+    n = g.group_node(grp)
+    write_case("clamp_group_color_default", g, socket=(n, "Out"), versions=BOTH,
+               note="group colour input default (-1, 0.5, 3) is stored as (0, 0.5, 3)")
+
+    g = Graph()
+    grp = g.group("Tint")
+    c = grp.add_input("C", "RGBA", default=[0.1, 0.2, 0.3, 1.0])
+    grp.link(c, grp.add_output("Out", "RGBA"))
+    n = g.group_node(grp, inputs={"C": [0.25, -2.0, 1.5, 1.0]})
+    write_case("clamp_group_node_color_value", g, socket=(n, "Out"), versions=BOTH,
+               note="group node colour input value (0.25, -2, 1.5) is stored as (0.25, 0, 1.5)")
+
+
 if __name__ == "__main__":
     tc_cases()
     reroute_cases()
     group_cases()
     bump_cases()
     principled_cases()
+    clamped_value_cases()
