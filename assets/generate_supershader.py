@@ -431,20 +431,41 @@ def value_mapping_module():
     return g
 
 
+# Hues of real surfaces (stone, earth, wood, rust, brick, slate, patina, plastics),
+# as a Color Ramp the Hue parameter walks along: uniform hue over the whole circle
+# gives mostly implausible greens and purples.
+PALETTE = [
+    (0.00, (0.50, 0.46, 0.42), "warm grey"), (0.10, (0.76, 0.62, 0.44), "sand"),
+    (0.20, (0.80, 0.56, 0.22), "ochre"), (0.30, (0.72, 0.32, 0.10), "rust"),
+    (0.40, (0.62, 0.16, 0.10), "brick"), (0.50, (0.42, 0.26, 0.15), "brown"),
+    (0.60, (0.46, 0.45, 0.22), "olive"), (0.70, (0.26, 0.42, 0.22), "moss"),
+    (0.80, (0.26, 0.31, 0.46), "slate"), (0.90, (0.15, 0.42, 0.46), "patina"),
+    (1.00, (0.42, 0.20, 0.36), "plum"),
+]
+
+
 def hsv_color_module():
-    """A colour from three parameters, with saturation and value ranges as inputs so
-    that one group serves dark, light and accent colours."""
+    """A colour from three parameters: Hue picks a hue from PALETTE, Saturation scales
+    the palette's saturation (squared: most materials muted, a few vivid), Value is
+    mapped to [Value Min, Value Max]; ranges are inputs so one group serves the dark,
+    light and accent colours."""
     g = new_group("Parameter Colour",
                   [fin("Hue"), fin("Saturation"), fin("Value"),
                    fin("Saturation Max", 1.0), fin("Value Min", 0.0), fin("Value Max", 1.0)],
                   [{"name": "Color", "type": "RGBA"}])
+    ramp = g.node("ShaderNodeValToRGB", "Palette", ramp={
+        "interpolation": "LINEAR", "color_mode": "RGB", "hue_interpolation": "NEAR",
+        "elements": [{"position": pos, "color": list(c) + [1.0]} for pos, c, _ in PALETTE]})
+    g.link(GI, "Hue", ramp, "Fac")
+    hsv = g.node("ShaderNodeSeparateColor", "Palette HSV", {"mode": "HSV"})
+    g.link(ramp, "Color", hsv, "Color")
     sat = g.map_range("Saturation Range", (GI, "Saturation"), 0.0, (GI, "Saturation Max"))
-    # Squared saturation: most materials are muted, a few are vivid.
     sq = g.math("Mostly Muted", "MULTIPLY", (sat, "Result"), (GI, "Saturation"))
+    amt = g.math("Saturation", "MULTIPLY", (sq, "Value"), (hsv, "Green"), clamp=True)
     val = g.map_range("Value Range", (GI, "Value"), (GI, "Value Min"), (GI, "Value Max"))
     c = g.node("ShaderNodeCombineColor", "HSV", {"mode": "HSV"})
-    g.link(GI, "Hue", c, "Red")
-    g.link(sq, "Value", c, "Green")
+    g.link(hsv, "Red", c, "Red")
+    g.link(amt, "Value", c, "Green")
     g.link(val, "Result", c, "Blue")
     g.link(c, "Color", GO, "Color")
     return g
@@ -480,14 +501,14 @@ PARAMS = (noise_params("A") + noise_params("B") + noise_params("C") + [
     ("Mult 4 Color Mapping", "Colour mapping", "shape of the colour signal", MAP_CHOICES),
     ("Color Mapping Low", "Colour mapping", "window start", "0..0.45"),
     ("Color Mapping High", "Colour mapping", "window end", "0.55..1"),
-    ("Color 1 Hue", "Colour", "dark colour hue", "0..1"),
-    ("Color 1 Saturation", "Colour", "dark colour saturation", "0..0.8 (times the parameter)"),
+    ("Color 1 Hue", "Colour", "dark colour hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Color 1 Saturation", "Colour", "dark colour saturation", "palette saturation x 0..1.3 x parameter"),
     ("Color 1 Value", "Colour", "dark colour value", "0.02..0.45"),
-    ("Color 2 Hue", "Colour", "light colour hue", "0..1"),
-    ("Color 2 Saturation", "Colour", "light colour saturation", "0..0.6 (times the parameter)"),
+    ("Color 2 Hue", "Colour", "light colour hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Color 2 Saturation", "Colour", "light colour saturation", "palette saturation x 0..1 x parameter"),
     ("Color 2 Value", "Colour", "light colour value", "0.3..0.95"),
-    ("Accent Hue", "Colour", "accent (spots, rust) hue", "0..1"),
-    ("Accent Saturation", "Colour", "accent saturation", "0..0.9 (times the parameter)"),
+    ("Accent Hue", "Colour", "accent (spots, rust) hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Accent Saturation", "Colour", "accent saturation", "palette saturation x 0..1.5 x parameter"),
     ("Accent Value", "Colour", "accent value", "0.05..0.8"),
     ("Accent Coverage", "Colour", "share of the surface under accent spots",
      "threshold on Noise C, 0.85..0.15"),
@@ -621,9 +642,9 @@ def build():
         t.link(P, prefix + " Value", c, "Value")
         return (c, "Color")
 
-    c1 = colour("Color 1", "Color 1", 0.8, 0.02, 0.45)
-    c2 = colour("Color 2", "Color 2", 0.6, 0.3, 0.95)
-    c3 = colour("Accent Color", "Accent", 0.9, 0.05, 0.8)
+    c1 = colour("Color 1", "Color 1", 1.3, 0.02, 0.45)
+    c2 = colour("Color 2", "Color 2", 1.0, 0.3, 0.95)
+    c3 = colour("Accent Color", "Accent", 1.5, 0.05, 0.8)
     two_tone = t.mix_color("Two-tone", cfac, c1, c2)
     grime_sig = t.map_range("Grime Shade", signals["C"], 0.15, 1.0, label="grime 0.15..1")
     grime = t.mix_color("Grime", p("Grime Amount"), (two_tone, "Result_Color"),
