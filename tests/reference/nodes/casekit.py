@@ -16,10 +16,13 @@ Plain python3, no bpy. Typical use:
     g.link(co, (n, "Vector"))
     write_case("noise_fbm", g, socket=(n, "Fac"), versions=("3.4", "4.3"))
 
-Why coordinates are snapped inside the graph: Cycles' one camera ray per pixel lands up to
-~0.005 px away from the pixel centre (its filter table is sampled, not exact), so a texture
-evaluated at the raw hit point differs from ours (which uses exact centres) wherever the
-texture is steep or discontinuous. pixel_coords() rebuilds the pixel index from the hit
+Why coordinates are snapped inside the graph: Cycles' one camera ray per pixel may land up
+to 0.005 px (half the 0.01 px filter width) away from the pixel centre, so a texture
+evaluated at the raw hit point could differ from ours (which uses exact centres) wherever
+the texture is steep or discontinuous. Measured (tc_* cases): at 1 sample the raw
+Generated/Object/UV coordinates agree with the exact centres to 1e-7 (< 1e-5 px) in 3.4
+and 4.3, but only snapping makes the two sides bit-identical, which cell borders and
+floor() need. pixel_coords() rebuilds the pixel index from the hit
 point with floor() and returns the exact centre, computed in float by operations whose
 results are exact (power-of-two scales), so Blender and our evaluator see the same bits.
 
