@@ -144,11 +144,11 @@ extern "C" void oiio_reader_close(oiio_reader *reader)
     try {
         reader->input->close();
         reader->input->geterror();
-        delete reader;
+        OIIO::geterror();
     } catch (...) {
-        /* Nothing to report to; the reader's memory may leak but nothing crashes. */
+        /* Nothing to report to: the pixels were read, or the read already failed. */
     }
-    OIIO::geterror();
+    delete reader;
 }
 
 extern "C" int oiio_write_png8(const char *path, int width, int height, int channels,
