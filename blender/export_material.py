@@ -360,6 +360,12 @@ def pick_material(name):
                 bpy.data.filepath, name, ", ".join(sorted(x.name for x in bpy.data.materials))))
         return m
     with_nodes = [m for m in bpy.data.materials if m.use_nodes]
+    if len(with_nodes) > 1:
+        # Prefer the materials objects actually use.
+        used = {slot.material for ob in bpy.data.objects for slot in ob.material_slots
+                if slot.material is not None and slot.material.use_nodes}
+        if len(used) == 1:
+            return used.pop()
     if len(with_nodes) != 1:
         raise ExportError("%s: %d materials with nodes (%s): choose one with --material"
                           % (bpy.data.filepath, len(with_nodes),

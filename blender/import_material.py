@@ -483,6 +483,12 @@ def _main(argv):
                    help="refuse values Blender would clamp (negative colours, ...)")
     a = p.parse_args(argv)
     data = load_json(a.material)
+    # Start from an empty file: the startup file's cube, its material and light would
+    # otherwise be saved beside ours.
+    for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.lights,
+                 bpy.data.cameras, bpy.data.node_groups):
+        for block in list(coll):
+            coll.remove(block)
     mat = build_material(data, blender_major(), source=a.material, strict=a.strict)
     if a.scene:
         build_scene(bpy.context.scene, mat)
