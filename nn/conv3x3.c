@@ -172,9 +172,9 @@ static void input_transform_row(float *v, size_t xs, float *const rows[4], int t
 }
 
 /* A^T m A + bias for one tile row of one output channel: m[xi * ms + tx] -> output rows
- * o0 (2ty) and o1 (2ty+1, NULL past the plane), W columns. */
+ * o0 (2ty) and o1 (2ty+1, NULL past the plane), W columns; then max(0, .) if relu. */
 static void output_transform_row(float *o0, float *o1, const float *m, size_t ms, int tw,
-                                 int W, float bias)
+                                 int W, float bias, int relu)
 {
     int tx = 0;
 #ifdef __AVX512F__
@@ -203,6 +203,10 @@ static void output_transform_row(float *o0, float *o1, const float *m, size_t ms
             const __m512 *r = i ? r1 : r0;
             __m512 y0 = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(r[0], r[1]), r[2]), vb);
             __m512 y1 = _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(r[1], r[2]), r[3]), vb);
+            if (relu) {
+                y0 = _mm512_max_ps(y0, _mm512_setzero_ps());
+                y1 = _mm512_max_ps(y1, _mm512_setzero_ps());
+            }
             _mm512_mask_storeu_ps(o + 2 * tx, mlo, _mm512_permutex2var_ps(y0, lo_idx, y1));
             _mm512_mask_storeu_ps(o + 2 * tx + 16, mhi, _mm512_permutex2var_ps(y0, hi_idx, y1));
         }
@@ -220,9 +224,11 @@ static void output_transform_row(float *o0, float *o1, const float *m, size_t ms
             float *o = i ? o1 : o0;
             if (!o)
                 break;
-            o[2 * tx] = r[i][0] + r[i][1] + r[i][2] + bias;
+            float y0 = r[i][0] + r[i][1] + r[i][2] + bias;
+            float y1 = r[i][1] - r[i][2] - r[i][3] + bias;
+            o[2 * tx] = relu && !(y0 > 0.0f) ? 0.0f : y0;
             if (2 * tx + 1 < W)
-                o[2 * tx + 1] = r[i][1] - r[i][2] - r[i][3] + bias;
+                o[2 * tx + 1] = relu && !(y1 > 0.0f) ? 0.0f : y1;
         }
     }
 }
@@ -330,7 +336,7 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
             float *o = L->out + ((size_t)n * K + k) * plane + (size_t)(2 * ty) * W;
             output_transform_row(o, 2 * ty + 1 < H ? o + W : NULL,
                                  M + (size_t)k * T + (size_t)q * tw, (size_t)K * T, tw, W,
-                                 L->bias[k]);
+                                 L->bias[k], L->relu);
         }
     }
 }
@@ -366,8 +372,14 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
         float *o = L->out + (n * K + k) * plane + first;
         const float *m = M + (size_t)k * T;
         const float b = L->bias[k];
-        for (int t = 0; t < T; t++)
-            o[t] = m[t] + b;
+        if (L->relu)
+            for (int t = 0; t < T; t++) {
+                float v = m[t] + b;
+                o[t] = v > 0.0f ? v : 0.0f;
+            }
+        else
+            for (int t = 0; t < T; t++)
+                o[t] = m[t] + b;
     }
 }
 

@@ -14,6 +14,7 @@ typedef struct conv_layer {
     const float *U;      /* (16,K,C) Winograd-transformed weights */
     const float *weight; /* (K,C*9) */
     const float *bias;   /* (K) */
+    int relu;            /* apply max(0, .) to the output */
     int chunk;
 } conv_layer;
 

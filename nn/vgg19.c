@@ -10,6 +10,7 @@
  * Every conv is 3x3, stride 1, padding 1, followed by a ReLU. The last pool is skipped:
  * nothing after conv5_4 is used.
  */
+#include <cblas.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -248,6 +249,11 @@ int vgg_preprocess(float *out, const float *pixels, int width, int height, int c
 
 /* ------------------------------------------------------------ workspace ----------- */
 
+/* Work is handed to the pool as a job: a function over chunk indices 0..count-1. A chunk
+ * always computes the same thing in the same order, whichever worker takes it, so the
+ * results do not depend on the thread count. */
+typedef void (*job_fn)(const void *ctx, size_t chunk, float *scratch);
+
 struct vgg_workspace {
     const vgg19 *net;
     vgg_options opt;
@@ -256,14 +262,15 @@ struct vgg_workspace {
     float *U[VGG_CONV_LAYERS];      /* Winograd weights, or NULL for im2col layers */
     int winograd[VGG_CONV_LAYERS];
     int chunk[VGG_CONV_LAYERS];
-    float *gram_scratch;            /* C*C of the widest layer */
+    float *gram_partial;            /* per-slice partial Grams of the largest tap */
     int threads;
     float **scratch;                /* per thread */
     size_t bytes;
     /* worker pool: the caller is worker 0 */
     pthread_t *tid;
     pthread_barrier_t start, done;
-    const conv_layer *job;
+    job_fn job;
+    const void *job_ctx;
     atomic_size_t next_chunk;
     size_t job_chunks;
     int quit;
@@ -287,7 +294,22 @@ static void run_chunks(vgg_workspace *ws, int worker)
         size_t c = atomic_fetch_add(&ws->next_chunk, 1);
         if (c >= ws->job_chunks)
             break;
-        conv_run_chunk(ws->job, c, ws->scratch[worker]);
+        ws->job(ws->job_ctx, c, ws->scratch[worker]);
+    }
+}
+
+static void run_job(vgg_workspace *ws, job_fn fn, const void *ctx, size_t chunks)
+{
+    ws->job = fn;
+    ws->job_ctx = ctx;
+    ws->job_chunks = chunks;
+    atomic_store(&ws->next_chunk, 0);
+    if (ws->threads > 1) {
+        pthread_barrier_wait(&ws->start);
+        run_chunks(ws, 0);
+        pthread_barrier_wait(&ws->done);
+    } else {
+        run_chunks(ws, 0);
     }
 }
 
@@ -311,11 +333,101 @@ static void *worker_main(void *p)
     return NULL;
 }
 
+/* ---- jobs ---- */
+
+static void conv_job(const void *ctx, size_t chunk, float *scratch)
+{
+    conv_run_chunk(ctx, chunk, scratch);
+}
+
+/* Gram of each image's (K, HW) features, split along HW into slices of GRAM_SLICE
+ * columns: chunk (image, slice) writes the slice's partial F F^T (upper part) into
+ * partial[image][slice]; gram_finish_job then adds the slices in slice order. */
+#define GRAM_SLICE_FLOATS ((size_t)1 << 18) /* 1 MB of features per slice */
+
+typedef struct gram_ctx {
+    const float *y; /* (n, K, HW) */
+    int n, K, HW, slice, slices;
+    float *partial; /* (n, slices, K, K) */
+    float *out;     /* descriptor rows */
+    size_t row, offset;
+} gram_ctx;
+
+static void gram_slice_job(const void *ctx, size_t chunk, float *scratch)
+{
+    const gram_ctx *g = ctx;
+    size_t i = chunk / g->slices, s = chunk % g->slices;
+    int c0 = (int)s * g->slice, len = g->HW - c0 < g->slice ? g->HW - c0 : g->slice;
+    const float *f = g->y + i * g->K * g->HW + c0;
+    cblas_ssyrk(CblasRowMajor, CblasUpper, CblasNoTrans, g->K, len, 1.0f, f, g->HW, 0.0f,
+                g->partial + (i * g->slices + s) * g->K * g->K, g->K);
+}
+
+/* Chunk = (image, row of G): sum the slices' row in order, scale, write the upper part. */
+static void gram_finish_job(const void *ctx, size_t chunk, float *scratch)
+{
+    const gram_ctx *g = ctx;
+    size_t i = chunk / g->K;
+    int r = (int)(chunk % g->K);
+    const size_t kk = (size_t)g->K * g->K;
+    const float *p = g->partial + i * g->slices * kk + (size_t)r * g->K;
+    /* Row r's upper part starts after rows 0..r-1, which hold K + (K-1) + ... entries. */
+    float *o = g->out + i * g->row + g->offset + (size_t)r * g->K - (size_t)r * (r - 1) / 2;
+    const float inv = 1.0f / (float)g->HW;
+    for (int c = r; c < g->K; c++) {
+        float sum = p[c];
+        for (int s = 1; s < g->slices; s++)
+            sum += p[s * kk + c];
+        o[c - r] = sum * inv;
+    }
+}
+
+typedef struct pool_ctx {
+    float *out;
+    const float *in;
+    int H, W, planes_per_chunk;
+    size_t planes;
+    vgg_pool pool;
+    int relu_input; /* the input still needs its ReLU (the Gram was taken before it) */
+} pool_ctx;
+
+static void pool_job(const void *ctx, size_t chunk, float *scratch)
+{
+    const pool_ctx *p = ctx;
+    size_t first = chunk * p->planes_per_chunk;
+    int count = (int)(p->planes - first < (size_t)p->planes_per_chunk ? p->planes - first
+                                                                       : (size_t)p->planes_per_chunk);
+    int k = p->pool == VGG_POOL_AVG3 ? 3 : 2;
+    int OH = (p->H - k) / k + 1, OW = (p->W - k) / k + 1;
+    const float *in = p->in + first * p->H * p->W;
+    float *out = p->out + first * OH * OW;
+    /* ReLU commutes with max, not with averaging: for avg, rectify into scratch first. */
+    if (p->relu_input && p->pool != VGG_POOL_MAX2) {
+        size_t n = (size_t)count * p->H * p->W;
+        memcpy(scratch, in, n * sizeof(float));
+        relu_forward(scratch, n);
+        in = scratch;
+    }
+    if (p->pool == VGG_POOL_MAX2) {
+        maxpool_forward(out, in, 1, count, p->H, p->W, 2, 2);
+        if (p->relu_input)
+            relu_forward(out, (size_t)count * OH * OW);
+    } else {
+        avgpool_forward(out, in, 1, count, p->H, p->W, k, k);
+    }
+}
+
 /* Layers whose input is thin (conv1_1: 3 channels) or whose plane is tiny go through
  * im2col; the rest through Winograd. */
 static int use_winograd(int cin, int size)
 {
     return cin >= 16 && size >= 4;
+}
+
+static int gram_slice(int K, int HW)
+{
+    size_t s = GRAM_SLICE_FLOATS / (size_t)K;
+    return s >= (size_t)HW ? HW : (int)s;
 }
 
 vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, int max_batch)
@@ -327,17 +439,22 @@ vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, in
     ws->opt = *opt;
     ws->max_batch = max_batch < 1 ? 1 : max_batch;
     ws->threads = opt->threads < 1 ? 1 : opt->threads;
-    size_t largest = (size_t)3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE, scratch_floats = 0;
-    int widest = 0;
+    size_t largest = (size_t)3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE, scratch_floats = 0,
+           partial = 0;
     for (int l = 0; l < VGG_CONV_LAYERS; l++) {
         int s = layer_size(opt->pool, l), C = net->cin[l], K = net->cout[l];
         size_t a = (size_t)K * s * s;
         largest = a > largest ? a : largest;
-        widest = K > widest ? K : widest;
         ws->winograd[l] = use_winograd(C, s);
         ws->chunk[l] = conv_chunk_size(ws->winograd[l], C, K, s, CONV_CHUNK_BUDGET);
         size_t sf = conv_scratch_floats(ws->winograd[l], C, K, s, ws->chunk[l]);
         scratch_floats = sf > scratch_floats ? sf : scratch_floats;
+        /* A pool chunk rectifies its 8 planes into scratch (see pool_job). */
+        sf = (size_t)s * s * 8;
+        scratch_floats = sf > scratch_floats ? sf : scratch_floats;
+        int slice = gram_slice(K, s * s), slices = (s * s + slice - 1) / slice;
+        size_t pf = (size_t)ws->max_batch * slices * K * K;
+        partial = pf > partial ? pf : partial;
         if (ws->winograd[l]) {
             ws->U[l] = malloc(16 * (size_t)K * C * sizeof(float));
             if (!ws->U[l])
@@ -351,15 +468,14 @@ vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, in
         if (!ws->act[i])
             goto fail;
     }
-    ws->gram_scratch = malloc((size_t)widest * widest * sizeof(float));
+    ws->gram_partial = malloc(partial * sizeof(float));
     ws->scratch = calloc((size_t)ws->threads, sizeof *ws->scratch);
-    if (!ws->gram_scratch || !ws->scratch)
+    if (!ws->gram_partial || !ws->scratch)
         goto fail;
     for (int t = 0; t < ws->threads; t++)
         if (!(ws->scratch[t] = malloc(scratch_floats * sizeof(float))))
             goto fail;
-    ws->bytes += 2 * (size_t)ws->max_batch * largest * sizeof(float) +
-                 (size_t)widest * widest * sizeof(float) +
+    ws->bytes += 2 * (size_t)ws->max_batch * largest * sizeof(float) + partial * sizeof(float) +
                  (size_t)ws->threads * scratch_floats * sizeof(float);
     if (ws->threads > 1) {
         ws->tid = calloc((size_t)ws->threads, sizeof *ws->tid);
@@ -400,7 +516,7 @@ void vgg_workspace_free(vgg_workspace *ws)
         free(ws->U[l]);
     free(ws->act[0]);
     free(ws->act[1]);
-    free(ws->gram_scratch);
+    free(ws->gram_partial);
     if (ws->scratch)
         for (int t = 0; t < ws->threads; t++)
             free(ws->scratch[t]);
@@ -413,20 +529,11 @@ size_t vgg_workspace_bytes(const vgg_workspace *ws)
     return ws->bytes;
 }
 
-static void conv_forward(vgg_workspace *ws, const conv_layer *L)
-{
-    ws->job = L;
-    ws->job_chunks = conv_chunk_count(L);
-    atomic_store(&ws->next_chunk, 0);
-    if (ws->threads > 1) {
-        pthread_barrier_wait(&ws->start);
-        run_chunks(ws, 0);
-        pthread_barrier_wait(&ws->done);
-    } else {
-        run_chunks(ws, 0);
-    }
-}
-
+/*
+ * One pass: conv (+ ReLU fused into its output unless a pre-ReLU Gram must see the raw
+ * values), Gram at the taps, pooling (+ the deferred ReLU) between blocks. After conv5_4
+ * nothing is needed but its Gram.
+ */
 void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out)
 {
     const vgg19 *net = ws->net;
@@ -438,40 +545,33 @@ void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out)
     int s = VGG_INPUT_SIZE, block = 0;
     for (int l = 0; l < VGG_CONV_LAYERS; l++) {
         const int C = net->cin[l], K = net->cout[l];
+        const int tap = l == block_last_conv[block];
         float *y = ws->act[cur];
         conv_layer L = {.in = x, .out = y, .N = n, .C = C, .K = K, .H = s, .W = s,
                         .winograd = ws->winograd[l], .U = ws->U[l], .weight = net->weight[l],
-                        .bias = net->bias[l], .chunk = ws->chunk[l]};
-        conv_forward(ws, &L);
-        const size_t count = (size_t)n * K * s * s;
-        if (l == block_last_conv[block]) {
-            if (ws->opt.post_relu)
-                relu_forward(y, count);
-            for (int i = 0; i < n; i++)
-                gram_upper_forward(out + (size_t)i * row + offsets[block],
-                                   y + (size_t)i * K * s * s, K, s * s, ws->gram_scratch);
-            if (!ws->opt.post_relu)
-                relu_forward(y, count);
-            if (block < 4) {
-                float *z = ws->act[cur ^ 1];
-                if (ws->opt.pool == VGG_POOL_AVG3)
-                    avgpool_forward(z, y, n, K, s, s, 3, 3);
-                else if (ws->opt.pool == VGG_POOL_AVG2)
-                    avgpool_forward(z, y, n, K, s, s, 2, 2);
-                else
-                    maxpool_forward(z, y, n, K, s, s, 2, 2);
-                s = layer_size(ws->opt.pool, l + 1);
-                x = z;
-                /* z is in buffer cur^1; the next conv writes to buffer cur. */
-            } else {
-                x = y;
-                cur ^= 1;
-            }
-            block++;
-        } else {
-            relu_forward(y, count);
+                        .bias = net->bias[l], .relu = !tap || ws->opt.post_relu,
+                        .chunk = ws->chunk[l]};
+        run_job(ws, conv_job, &L, conv_chunk_count(&L));
+        if (!tap) {
             x = y;
             cur ^= 1;
+            continue;
         }
+        gram_ctx g = {.y = y, .n = n, .K = K, .HW = s * s, .slice = gram_slice(K, s * s),
+                      .partial = ws->gram_partial, .out = out, .row = row,
+                      .offset = offsets[block]};
+        g.slices = (g.HW + g.slice - 1) / g.slice;
+        run_job(ws, gram_slice_job, &g, (size_t)n * g.slices);
+        run_job(ws, gram_finish_job, &g, (size_t)n * K);
+        if (block < 4) {
+            float *z = ws->act[cur ^ 1];
+            pool_ctx p = {.out = z, .in = y, .H = s, .W = s, .planes_per_chunk = 8,
+                          .planes = (size_t)n * K, .pool = ws->opt.pool,
+                          .relu_input = !ws->opt.post_relu};
+            run_job(ws, pool_job, &p, (p.planes + 7) / 8);
+            s = layer_size(ws->opt.pool, l + 1);
+            x = z; /* in buffer cur^1; the next conv writes to buffer cur */
+        }
+        block++;
     }
 }
