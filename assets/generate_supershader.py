@@ -717,14 +717,122 @@ def count_nodes(tree, groups):
     return shown, ungrouped
 
 
+MARKDOWN = """# The super-shader
+
+`assets/supershader.json` (format `imsynth-graph/1`, Blender 4.x vocabulary) is the
+material every training sample is made from. It is written by
+`assets/generate_supershader.py` (plain Python 3: `python3 assets/generate_supershader.py`);
+change the generator, not the JSON. The thesis's own super-shader is lost (only a Git LFS
+pointer survives), so this one follows its description (thesis.md 5.1, 5.1.1).
+
+**Size.** {shown} nodes, counted as Blender's editor shows them with every group opened:
+each node of the material tree, plus, for every group node, the nodes of its group
+(including Group Input and Group Output), recursively, once per group instance. After
+Blender's *Ungroup* (group nodes and group input/output nodes gone) {ungrouped} remain.
+The thesis's super-shader had 507. Groups, with their instance counts: {groups}.
+
+**Parameters.** 50 floats in [0, 1], the outputs of the group `RandomValues` (no inputs;
+each output is fed by a Value node of the same name: binding a parameter set means setting
+those Value nodes, `sg_graph_bind_params` in `shadergraph/params.c`). Every mapping to a
+node's own range is done by nodes inside the graph (Map Range, Math). `Mult N ...` names
+are N-way multiplexer selectors. `imsynth sample --seed N` prints frame N's set: seeded
+with N, uniform, rounded to 3 decimals, selectors moved to their bin centre
+`min((floor(u*N) + 0.5) / N, 1)`. The generator is SplitMix64, not Python's Mersenne
+Twister, so frame N here is not the thesis's frame N (reproducing MT19937 and CPython's
+float conversion bit for bit was not worth it: the thesis's renders are lost too).
+
+**Modules** (node groups, as a Blender user would build them):
+- *Noise Module* (3 instances, A, B, C): nine patterns behind a hard 9-way switch:
+  {patterns}. Scale, Detail, Roughness and Distortion shape them (Distortion also sets the
+  cells' Randomness). Each pattern is renormalised to about [0, 1] by a clamped Map Range
+  whose input window was measured over the plane with our evaluator at the extremes of
+  Detail and Roughness; the multifractal types, which Blender does not normalise, use
+  windows proportional to their total octave weight M = (1 - r^(detail+1)) / (1 - r),
+  computed by Math nodes in the module.
+- *Math Module* (2 instances): A (op) B with op in {ops}, renormalised per operation.
+  Structure = A (op) B; Detail = Structure (op) C.
+- *Value Mapping* (3 instances: colour, roughness, height): a window [Low, High] of the
+  signal, then linear, smootherstep, terraces (stepped Map Range) or a ridge (Color Ramp
+  0 -> 1 -> 0), chosen by a hard 4-way switch.
+- *Parameter Colour* (3 instances: dark, light, accent): Hue walks a Color Ramp of real
+  surface hues ({palette}); saturation is the palette's, scaled by the parameter squared
+  (most materials muted, a few vivid); value is mapped per colour.
+- *Hard Switch N* (N = 2, 3, 4, 6, 9): `index = min(floor(v*N), N-1)`, then a chain of
+  float Mix nodes whose factors are `index > k - 0.5` (0 or 1), so the chosen input passes
+  through exactly. Built from Math and Mix nodes only.
+- *Smooth Switch 4 Color*: `t = v*3`; a chain of colour Mix nodes with clamped factors
+  `t - (k-1)` gives `lerp(Color j, Color j+1, t - j)`, j = floor(t). With selectors at bin
+  centres (t = 0.375, 1.125, 1.875, 2.625) every choice is a blend of two neighbouring
+  layers.
+
+**Maps.** The three noise signals drive all four maps of the Principled BSDF, so colour,
+shine and relief agree: Base Color = colour layer (two-tone by the colour signal; times a
+grime shade from Noise C; accent spots where Noise C passes a threshold; Detail overlaid)
+through the smooth switch; Metallic = dielectric, metal, metal except under the accent
+spots (rust), or metal only under them (inlays, flakes); Roughness = base + variation x
+a mapped signal; Normal = Bump of a mapped (optionally inverted) height. Coordinates are
+Object coordinates (the plane spans -1..1) shifted by Pattern Offset and domain-warped by
+a fixed fBM.
+
+**Blender.** The JSON builds in Blender 4.3 (`blender/import_material.py`, checked).
+Blender 3.4 cannot build the super-shader itself: its Musgrave node (which the 4.x
+Ridged / Hybrid / Hetero noise types become) takes no Distortion and the importer cannot
+translate a linked Detail or Roughness. A sub-shader extracted for a parameter set has
+those inputs constant and is the thing to open in 3.4.
+
+**Contact sheet.** `supershader-contact-sheet.png`: frames 0-63 (`imsynth sample --seed
+0..63`), row-major from the top left, 128 x 128 each, made by `scripts/contact_sheet.py`
+with our CLI. Until the path tracer exists it is a preview, not a render: Base Color
+times a Lambert term of the Bump normal (light from the upper left) - no specular, so
+metals look like their albedo.
+
+## The 50 parameters
+
+In sampling order (the order of RandomValues' outputs).
+
+| # | name | module | what it does | range after mapping / choices |
+|---|---|---|---|---|
+{table}
+"""
+
+
+def write_markdown(path, shown, ungrouped, tree):
+    inst = {}
+
+    def walk(t):
+        for n in t.nodes:
+            if n["type"] == "ShaderNodeGroup":
+                inst[n["group"]] = inst.get(n["group"], 0) + 1
+                walk(GROUPS[n["group"]])
+    walk(tree)
+    rows = "\n".join("| %d | `%s` | %s | %s | %s |" % (i, p[0], p[1], p[2], p[3])
+                     for i, p in enumerate(PARAMS))
+    text = MARKDOWN.format(
+        shown=shown, ungrouped=ungrouped,
+        groups=", ".join("%s x%d" % (k, v) for k, v in inst.items()),
+        patterns=", ".join("%d %s" % (k, p[0]) for k, p in enumerate(NOISE_PATTERNS)),
+        ops=", ".join(o.lower() for o in MATH_OPS),
+        palette=", ".join(c[2] for c in PALETTE), table=rows)
+    write_atomic(path, text)
+
+
+def write_atomic(path, text):
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".supershader.", dir=d)
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("-o", "--output", default=os.path.join(here, "supershader.json"))
+    ap.add_argument("--markdown", default=os.path.join(here, "supershader.md"),
+                    help="where to write the parameter table ('' for nowhere)")
     args = ap.parse_args()
     GROUPS.clear()
     t = build()
-    # Groups first used first (Blender does not care; people reading the file do).
     doc = {"format": FORMAT, "name": "Super Shader",
            "nodes": None, "links": None, "groups": {}}
     main_json = t.to_json(False)
@@ -732,12 +840,9 @@ def main():
     for name, g in GROUPS.items():
         doc["groups"][name] = g.to_json(True)
     shown, ungrouped = count_nodes(t, GROUPS)
-    text = json.dumps(doc, indent=1) + "\n"
-    d = os.path.dirname(os.path.abspath(args.output))
-    fd, tmp = tempfile.mkstemp(prefix=".supershader.", dir=d)
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, args.output)
+    write_atomic(args.output, json.dumps(doc, indent=1) + "\n")
+    if args.markdown:
+        write_markdown(args.markdown, shown, ungrouped, t)
     print("%s: %d nodes (groups opened, once per instance), %d after ungrouping, "
           "%d parameters, %d groups" % (args.output, shown, ungrouped, len(PARAMS), len(GROUPS)))
 
