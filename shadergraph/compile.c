@@ -391,6 +391,7 @@ static source emit_node(compiler *c, instance *in, int node, int socket)
                 return fail(c, "out of memory%s%s", "", ""), none;
             p->ramps = r;
             p->ramps[p->n_ramps] = *n->ramp;
+            sg_color_ramp_bake(&p->ramps[p->n_ramps], p->blender);
             ins->ramp = p->n_ramps++;
         }
         in->memo[node] = index + 1;

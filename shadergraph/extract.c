@@ -326,8 +326,23 @@ static context *new_context(flat *f, const sg_tree *t, context *parent, int pare
             if (f->failed)
                 break;
             sg_socket *in = &f->t.nodes[c->map[i]].in[k];
-            if (s.is_const) {
-                sg_convert_constant(s.type, in->type, s.value, in->value);
+            float conv[4];
+            if (s.is_const)
+                sg_convert_constant(s.type, in->type, s.value, conv);
+            if (s.is_const && in->type == SG_SOCKET_COLOR &&
+                (conv[0] < 0.0f || conv[1] < 0.0f || conv[2] < 0.0f)) {
+                /* A colour socket cannot hold a negative value (Blender clamps it), but
+                 * a link can carry one: build it with Combine Color from floats. */
+                char nm[600];
+                snprintf(nm, sizeof nm, "%s%s (%s)", prefix, t->nodes[i].name, in->identifier);
+                int cc = add_typed_node(f, "ShaderNodeCombineColor", nm);
+                if (cc < 0)
+                    break;
+                for (int ch = 0; ch < 3; ch++)
+                    f->t.nodes[cc].in[ch].value[0] = conv[ch];
+                add_link(f, cc, 0, c->map[i], k);
+            } else if (s.is_const) {
+                memcpy(in->value, conv, sizeof conv);
                 /* A constant now sits where a link was: an implicit input must not
                  * fall back to geometry. */
                 in->implicit = SG_IMPLICIT_NONE;
@@ -375,18 +390,27 @@ static bool prop_is(const sg_node *n, const char *name, const char *value)
     return k >= 0 && n->type->props[k].values && !strcmp(n->type->props[k].values[n->prop[k]], value);
 }
 
-/* Gives every consumer of (node, socket) the constant `v` of type t. */
-static void replace_output_by_constant(flat *f, int node, int socket, sg_socket_type t, const float *v)
+/* Gives every consumer of (node, socket) the constant `v` of type t, except where the
+ * value cannot be stored: Blender clamps colour sockets at 0, so a negative colour stays
+ * computed by its node. Returns how many links were replaced. */
+static int replace_output_by_constant(flat *f, int node, int socket, sg_socket_type t, const float *v)
 {
+    int replaced = 0;
     for (int l = f->t.n_links - 1; l >= 0; l--) {
         sg_link k = f->t.links[l];
         if (k.from_node != node || k.from_socket != socket)
             continue;
         sg_socket *in = &f->t.nodes[k.to_node].in[k.to_socket];
-        sg_convert_constant(t, in->type, v, in->value);
+        float conv[4];
+        sg_convert_constant(t, in->type, v, conv);
+        if (in->type == SG_SOCKET_COLOR && (conv[0] < 0.0f || conv[1] < 0.0f || conv[2] < 0.0f))
+            continue;
+        memcpy(in->value, conv, sizeof conv);
         in->implicit = SG_IMPLICIT_NONE;
         remove_link(f, l);
+        replaced++;
     }
+    return replaced;
 }
 
 /* Relinks every consumer of (node, socket) to (src, src_socket). */
@@ -435,9 +459,10 @@ static bool fold_node(flat *f, int node, sg_blender_mode mode)
     sg_kernel_args a = {.n = 1, .blender = mode, .prop = n->prop, .ramp = n->ramp,
                         .in = in, .out = out, .geom = NULL, .offset = 0};
     t->kernel(&a);
+    int replaced = 0;
     for (int k = 0; k < n->n_out; k++)
-        replace_output_by_constant(f, node, k, n->out[k].type, outv[k]);
-    return true;
+        replaced += replace_output_by_constant(f, node, k, n->out[k].type, outv[k]);
+    return replaced > 0;
 }
 
 /* Values that are certainly finite, for the x*0 rule: textures, ramps and anything
@@ -508,8 +533,7 @@ static bool simplify_math(flat *f, int node)
     }
     if (absorb) {
         float v[4] = {constant, 0, 0, 0};
-        replace_output_by_constant(f, node, 0, SG_SOCKET_FLOAT, v);
-        return true;
+        return replace_output_by_constant(f, node, 0, SG_SOCKET_FLOAT, v) > 0;
     }
     return false;
 }
@@ -543,8 +567,7 @@ static bool simplify_mix(flat *f, int node)
     if (la < 0) {
         if (!isfinite(n->in[ka].value[0]))
             return false;
-        replace_output_by_constant(f, node, kr, n->in[ka].type, n->in[ka].value);
-        return true;
+        return replace_output_by_constant(f, node, kr, n->in[ka].type, n->in[ka].value) > 0;
     }
     const sg_link *l = &f->t.links[la];
     if (f->t.nodes[l->from_node].out[l->from_socket].type != n->in[ka].type ||

@@ -119,6 +119,10 @@ static int read_value(const load_ctx *c, const cJSON *j, sg_socket_type t, const
         snprintf(w, sizeof w, "%s[%d]", where, i);
         if (read_number(c, cJSON_GetArrayItem(j, i), w, &out[i]) < 0)
             return -1;
+        /* Blender stores colours clamped below at 0 (their RNA range is [0, inf)), so a
+         * negative channel is 0 in the material Blender builds: do as Blender does. */
+        if (t == SG_SOCKET_COLOR && out[i] < 0.0f)
+            out[i] = 0.0f;
     }
     return 0;
 }

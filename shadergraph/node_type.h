@@ -57,6 +57,7 @@ typedef struct sg_prop_def {
 
 /* A colour ramp as stored on the node (ColorRamp in Blender). */
 #define SG_RAMP_MAX_ELEMENTS 32
+#define SG_RAMP_TABLE_MAX 257
 typedef struct sg_color_ramp {
     int interpolation;     /* index into sg_ramp_interpolations: EASE, CARDINAL, LINEAR, B_SPLINE, CONSTANT */
     int color_mode;        /* RGB, HSV, HSL */
@@ -64,7 +65,14 @@ typedef struct sg_color_ramp {
     int n;                 /* elements, sorted by position on load */
     float position[SG_RAMP_MAX_ELEMENTS];
     float color[SG_RAMP_MAX_ELEMENTS][4];
+    /* The lookup table Blender bakes from the stops (steps + 1 entries), filled by
+     * sg_color_ramp_bake when a program is compiled; baked_steps is 0 in graphs. */
+    int baked_steps;
+    float baked[SG_RAMP_TABLE_MAX][4];
 } sg_color_ramp;
+
+/* Bakes the ramp's lookup table as Blender `mode` does (kernels/color.c). */
+void sg_color_ramp_bake(sg_color_ramp *r, sg_blender_mode mode);
 
 extern const char *const sg_ramp_interpolations[];
 extern const char *const sg_ramp_color_modes[];

@@ -435,7 +435,7 @@ enum { RAMP_RGB, RAMP_HSV, RAMP_HSL };
 enum { HUE_NEAR, HUE_FAR, HUE_CW, HUE_CCW };
 
 /* Entries of the table Blender hands to Cycles, at most. */
-#define RAMP_TABLE_MAX 257
+#define RAMP_TABLE_MAX SG_RAMP_TABLE_MAX
 
 /* Blender's BLI colour conversions (not Cycles'): the ramp is sampled on Blender's side. */
 static void bli_rgb_to_hsv(const float rgb[3], float hsv[3])
@@ -710,6 +710,25 @@ static void ramp_lookup(const float (*table)[4], int size, bool interpolate, flo
             out[c] = (1.0f - t) * out[c] + t * table[i + 1][c];
 }
 
+void sg_color_ramp_bake(sg_color_ramp *r, sg_blender_mode mode)
+{
+    /* Blender stores a stop's RGBA clamped below at 0 (RNA range [0, inf)): a negative
+     * channel written in the JSON is 0 in Blender's ramp. Above 1 is kept. */
+    sg_color_ramp ramp = *r;
+    for (int s = 0; s < ramp.n && s < SG_RAMP_MAX_ELEMENTS; s++)
+        for (int ch = 0; ch < 4; ch++)
+            ramp.color[s][ch] = fmaxf(ramp.color[s][ch], 0.0f);
+
+    /* Blender 3.x: 256 entries at i / 255; 4.x: 257 at i / 256. */
+    const int steps = mode == SG_BLENDER_3 ? 255 : 256;
+    for (int i = 0, span = 0; i <= steps; i++) {
+        float x = (float)i / (float)steps;
+        span = ramp_span(&ramp, x, span);
+        ramp_evaluate(&ramp, x, span, r->baked[i]);
+    }
+    r->baked_steps = steps;
+}
+
 static void color_ramp_kernel(const sg_kernel_args *a)
 {
     float *color = a->out[0], *alpha = a->out[1];
@@ -717,28 +736,23 @@ static void color_ramp_kernel(const sg_kernel_args *a)
     if (!color && !alpha)
         return;
 
-    /* Blender stores a stop's RGBA clamped below at 0 (RNA range [0, inf)): a negative
-     * channel written in the JSON is 0 in Blender's ramp. Above 1 is kept. */
-    sg_color_ramp ramp = *a->ramp;
-    for (int s = 0; s < ramp.n && s < SG_RAMP_MAX_ELEMENTS; s++)
-        for (int ch = 0; ch < 4; ch++)
-            ramp.color[s][ch] = fmaxf(ramp.color[s][ch], 0.0f);
-
-    /* Blender 3.x: 256 entries at i / 255; 4.x: 257 at i / 256. Rebuilt per batch (a few
-     * microseconds) so the kernel stays a pure function of its arguments. */
+    /* Compiled programs carry the baked table; bake here only for a ramp that was not
+     * (a kernel called directly, as the unit tests do). */
     const int steps = a->blender == SG_BLENDER_3 ? 255 : 256;
-    float table[RAMP_TABLE_MAX][4];
-    for (int i = 0, span = 0; i <= steps; i++) {
-        float x = (float)i / (float)steps;
-        span = ramp_span(&ramp, x, span);
-        ramp_evaluate(&ramp, x, span, table[i]);
+    const sg_color_ramp *ramp = a->ramp;
+    sg_color_ramp local;
+    if (ramp->baked_steps != steps) {
+        local = *ramp;
+        sg_color_ramp_bake(&local, a->blender);
+        ramp = &local;
     }
-    const bool interpolate = ramp.interpolation != RAMP_CONSTANT;
+    const float(*table)[4] = (const float(*)[4])ramp->baked;
+    const bool interpolate = ramp->interpolation != RAMP_CONSTANT;
 
     const float *fac = a->in[0];
     for (int i = 0; i < n; i++) {
         float rgba[4];
-        ramp_lookup((const float(*)[4])table, steps + 1, interpolate, fac[i], rgba);
+        ramp_lookup(table, steps + 1, interpolate, fac[i], rgba);
         if (color)
             f3_store(color, n, i, make_float3(rgba[0], rgba[1], rgba[2]));
         if (alpha)
