@@ -167,8 +167,8 @@ def math3(name, ops, a_range, b_range=None, c=None, clamp=False, versions=BOTH, 
 
 
 def math_cases():
-    grid8 = (-8.0, 1.0 / 16.0)     # [-8, 8): zeros, integers, halves, negatives
-    grid4 = (-4.0, 1.0 / 32.0)     # [-4, 4)
+    grid8 = (-8.0, 1.0 / 8.0)      # [-8, 8): zeros, integers, halves, negatives
+    grid4 = (-4.0, 1.0 / 16.0)     # [-4, 4)
     math3("math_add_sub_mul", ["ADD", "SUBTRACT", "MULTIPLY"], grid8, grid8)
     math3("math_divide_power_log", ["DIVIDE", "POWER", "LOGARITHM"], grid4, grid4,
           note="b = 0 row: division by zero gives 0; negative base with fractional "
@@ -196,33 +196,48 @@ def math_cases():
           note="FLOORED_MODULO exists only in Blender 4.x.")
     k = Case()
     a = k.fine(-4.0, 1.0 / 16.0)
-    coarse = k.sx(-4.0, 1.0 / 32.0)
+    coarse = k.sx(-4.0, 1.0 / 16.0)
     k.write("math_sin_cos_tan",
             k.combine(k.math("SINE", a), k.math("COSINE", a), k.math("TANGENT", coarse)),
             "Math SINE / COSINE over the fine sweep [-4, 4); TANGENT over the x sweep "
-            "[-4, 4) step 1/32, whose points stay >= 0.008 from the poles (|tan| < 130): "
+            "[-4, 4) step 1/16, whose points stay >= 0.008 from the poles (|tan| < 130): "
             "near a pole tanf's last-bit differences between C libraries exceed 1e-4.")
     math3("math_asin_acos_atan", ["ARCSINE", "ARCCOSINE", "ARCTANGENT"], (-2.0, 1.0 / 32.0),
           fine=True, note="arcsine/arccosine clamp their argument to [-1, 1].")
-    math3("math_atan2_sinh_tanh", ["ARCTAN2", "SINH", "TANH"], (-4.0, 1.0 / 32.0),
-          (-4.0, 1.0 / 32.0), note="atan2(0, 0) = 0 in both versions for +0.")
-    math3("math_cosh_radians_degrees", ["COSH", "RADIANS", "DEGREES"], (-4.0, 1.0 / 32.0))
+    math3("math_atan2_sinh_tanh", ["ARCTAN2", "SINH", "TANH"], grid4, grid4, note="atan2(0, 0) = 0 in both versions for +0.")
+    math3("math_cosh_radians_degrees", ["COSH", "RADIANS", "DEGREES"], grid4)
     math3("math_multiply_add", ["MULTIPLY_ADD"], grid8, grid8, c=0.375,
           note="fused in Cycles' AVX2 kernel.")
     math3("math_clamped", ["SUBTRACT", "DIVIDE", "TANGENT"], grid4, grid4, clamp=True,
           note="use_clamp: Cycles appends a Clamp node (0..1).")
 
+    # Signed zeros: a * 1e-30 * 1e-30 underflows to a zero with a's sign (constant-free,
+    # so Cycles cannot fold it away).
+    k = Case()
+    a = k.sx(-4.0, 1.0 / 16.0)
+    b = k.sy(-4.0, 1.0 / 16.0)
+
+    def signed_zero(v):
+        return k.math("MULTIPLY", k.math("MULTIPLY", v, 1e-30), 1e-30)
+
+    k.write("math_atan2_signed_zero",
+            k.combine(k.math("ARCTAN2", signed_zero(a), signed_zero(b)),
+                      k.math("ARCTAN2", signed_zero(a), b),
+                      k.math("ARCTAN2", a, signed_zero(b))),
+            "ARCTAN2 at signed zeros: 3.4's atan2f gives 0, -0, pi or -pi at the origin by "
+            "the zeros' signs; 4.3's compatible_atan2 gives 0 there.")
+
     # Non-finite and huge inputs.
     k = Case()
     huge = k.g.map_range(k.x, -1e30, 1e30)
-    b = k.sy(-4.0, 1.0 / 32.0)
+    b = k.sy(-4.0, 1.0 / 16.0)
     k.write("math_huge_bounded",
             k.combine(k.math("SINE", huge), k.math("MODULO", huge, b), k.math("ARCTAN2", b, huge)),
             "Huge a in [-1e30, 1e30] (x), b = y sweep: sin(a), fmod(a, b) (b = 0 gives 0), "
             "atan2(b, a); bounded outputs.")
     k = Case()
     a = k.sx(-128.0, 2.0)
-    b = k.sy(-4.0, 1.0 / 32.0)
+    b = k.sy(-4.0, 1.0 / 16.0)
     k.write("math_nonfinite",
             k.combine(k.math("EXPONENT", a), k.math("SINH", a),
                       k.math("SINE", k.math("EXPONENT", a), clamp=True)),
@@ -230,8 +245,8 @@ def math_cases():
             "writes 0 there); sin(inf) = NaN, which use_clamp's Clamp node turns into 0 "
             "(Cycles' max(NaN, 0) is 0).")
     k = Case()
-    a = k.sx(-4.0, 1.0 / 32.0)
-    b = k.sy(-4.0, 1.0 / 32.0)
+    a = k.sx(-4.0, 1.0 / 16.0)
+    b = k.sy(-4.0, 1.0 / 16.0)
     k.write("math_pow_zero_negative",
             k.combine(k.math("POWER", k.math("MULTIPLY", a, 0.0), b),
                       k.math("DIVIDE", b, k.math("POWER", a, 40.0)),
