@@ -19,6 +19,7 @@
  * NCHW output.
  */
 #include <cblas.h>
+#include <stdint.h>
 #include <string.h>
 #ifdef __AVX512F__
 #include <immintrin.h>
@@ -48,6 +49,25 @@ void winograd_weights(float *U, const float *w, int K, int C)
                     U[((size_t)(4 * i + j) * K + k) * C + c] = u[j];
             }
         }
+}
+
+/* Round to bfloat16, nearest-even (what VCVTNE2PS2BF16 does; NaN stays NaN). */
+static uint16_t to_bf16(float f)
+{
+    uint32_t b;
+    memcpy(&b, &f, 4);
+    if ((b & 0x7fffffffu) > 0x7f800000u)
+        return (uint16_t)(b >> 16 | 0x40);
+    return (uint16_t)((b + 0x7fffu + (b >> 16 & 1)) >> 16);
+}
+
+void winograd_weights_bf16(uint32_t *Ub, const float *U, int K, int C)
+{
+    // U (16,K,C) -> Ub (16,K,C/2): low half bf16(U[..][2p]), high half bf16(U[..][2p+1])
+    for (size_t i = 0; i < 16 * (size_t)K; i++)
+        for (int p = 0; p < C / 2; p++)
+            Ub[i * (C / 2) + p] = (uint32_t)to_bf16(U[i * C + 2 * p]) |
+                                  (uint32_t)to_bf16(U[i * C + 2 * p + 1]) << 16;
 }
 
 /* ------------------------------------------------------------ chunk geometry ------ */
@@ -98,7 +118,7 @@ int conv_chunk_size(int winograd, int C, int K, int W, size_t budget)
 size_t conv_scratch_floats(int winograd, int C, int K, int W, int chunk)
 {
     if (winograd) {
-        size_t T = (size_t)chunk * ((W + 1) / 2);
+        size_t T = ((size_t)chunk * ((W + 1) / 2) + 15) / 16 * 16;
         return 16 * (size_t)(C + K) * T + 4 * row_floats(W);
     }
     return (9 * (size_t)C + (size_t)K) * chunk;
@@ -296,15 +316,169 @@ static void gemm_kct(float *M, const float *U, const float *V, int K, int C, int
     cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, T, C, 1.0f, U, C, V, T, 0.0f, M, T);
 }
 
+#if defined(__AVX512F__) && defined(__AVX512BF16__)
+/* The fast path's product: the same blocking as gemm_block over channel pairs, one
+ * VDPBF16PS doing both channels' multiply-adds (bf16 products, fp32 sums). */
+static inline __attribute__((always_inline)) void
+gemm_block_bf16(float *M, const uint32_t *Ub, const uint32_t *Vb, int C2, int T, int k0, int t0,
+                int nv)
+{
+    __mmask16 m[3];
+    for (int j = 0; j < 3; j++)
+        m[j] = lanes(T - t0 - 16 * j);
+    __m512 acc[8][3];
+    for (int r = 0; r < 8; r++)
+        for (int j = 0; j < nv; j++)
+            acc[r][j] = _mm512_setzero_ps();
+    const uint32_t *u = Ub + (size_t)k0 * C2;
+    const uint32_t *v = Vb + t0;
+    for (int p = 0; p < C2; p++, v += T, u++) {
+        __m512bh vv[3];
+        for (int j = 0; j < nv; j++)
+            vv[j] = (__m512bh)_mm512_maskz_loadu_epi32(m[j], v + 16 * j);
+        for (int r = 0; r < 8; r++) {
+            __m512bh b = (__m512bh)_mm512_set1_epi32((int)u[(size_t)r * C2]);
+            for (int j = 0; j < nv; j++)
+                acc[r][j] = _mm512_dpbf16_ps(acc[r][j], b, vv[j]);
+        }
+    }
+    float *o = M + (size_t)k0 * T + t0;
+    for (int r = 0; r < 8; r++)
+        for (int j = 0; j < nv; j++)
+            _mm512_mask_storeu_ps(o + (size_t)r * T + 16 * j, m[j], acc[r][j]);
+}
+
+/* V (C, T) floats -> channel pairs of bf16 (C/2, T) in place: pair p's row lands where
+ * float row p was, which pairs 0..p-1 (rows 0..2p-1) have already been read from. */
+static void pack_bf16_pairs(float *V, int C, int T)
+{
+    const __m512i lo_idx = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22,
+                                             7, 23);
+    const __m512i hi_idx = _mm512_add_epi32(lo_idx, _mm512_set1_epi32(8));
+    uint32_t *out = (uint32_t *)V;
+    for (int p = 0; p < C / 2; p++) {
+        const float *a = V + (size_t)(2 * p) * T, *b = a + T;
+        uint32_t *o = out + (size_t)p * T;
+        for (int t = 0; t < T; t += 16) {
+            __mmask16 m = lanes(T - t);
+            __m512 x = _mm512_maskz_loadu_ps(m, a + t), y = _mm512_maskz_loadu_ps(m, b + t);
+            __m512 first = _mm512_permutex2var_ps(x, lo_idx, y);  /* tiles t..t+7 */
+            __m512 second = _mm512_permutex2var_ps(x, hi_idx, y); /* tiles t+8..t+15 */
+            __m512i packed = (__m512i)_mm512_cvtne2ps_pbh(second, first);
+            _mm512_mask_storeu_epi32(o + t, m, packed);
+        }
+    }
+}
+
+static void gemm_kct_bf16(float *M, const uint32_t *Ub, float *V, int K, int C, int T)
+{
+    pack_bf16_pairs(V, C, T);
+    const uint32_t *Vb = (const uint32_t *)V;
+    int t0 = 0, C2 = C / 2;
+    for (; T - t0 > 32; t0 += 48)
+        for (int k0 = 0; k0 < K; k0 += 8)
+            gemm_block_bf16(M, Ub, Vb, C2, T, k0, t0, 3);
+    if (T - t0 > 16)
+        for (int k0 = 0; k0 < K; k0 += 8)
+            gemm_block_bf16(M, Ub, Vb, C2, T, k0, t0, 2);
+    else if (T - t0 > 0)
+        for (int k0 = 0; k0 < K; k0 += 8)
+            gemm_block_bf16(M, Ub, Vb, C2, T, k0, t0, 1);
+}
+#endif
+
+int conv_have_bf16(void)
+{
+#if defined(__AVX512F__) && defined(__AVX512BF16__)
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+#if defined(__AMX_TILE__) && defined(__AMX_BF16__) && defined(__AVX512BF16__) && defined(__linux__)
+#define HAVE_AMX 1
+#include <sys/syscall.h>
+#include <unistd.h>
+
+typedef struct amx_tile_config {
+    uint8_t palette, start_row, reserved[14];
+    uint16_t colsb[16];
+    uint8_t rows[16];
+} __attribute__((packed)) amx_tile_config;
+
+/* Linux hands out the 8 KB AMX tile state only on request (ARCH_REQ_XCOMP_PERM for
+ * XFEATURE_XTILEDATA); without it the first tile instruction faults. */
+int conv_enable_amx(void)
+{
+    return syscall(SYS_arch_prctl, 0x1023 /* ARCH_REQ_XCOMP_PERM */, 18) == 0;
+}
+
+/* M (K x Tp) = U (K x C) * V (C x Tp) on AMX: tiles of 16 rows x 64 bytes. A (tmm4/5):
+ * 16 output channels x 32 input channels of Ub; B (tmm6/7): 16 channel pairs x 16 tiles
+ * of Vb, already in the pair-interleaved (VNNI) layout AMX wants; C (tmm0-3): 2 x 2
+ * blocks of 16 x 16 fp32 sums. K % 32 == 0, C % 32 == 0, Tp % 16 == 0. */
+static void gemm_amx(float *M, const uint32_t *Ub, const uint32_t *Vb, int K, int C, int Tp)
+{
+    const int C2 = C / 2;
+    const size_t lda = (size_t)C2 * 4, ldb = (size_t)Tp * 4;
+    for (int k0 = 0; k0 < K; k0 += 32)
+        for (int t0 = 0; t0 < Tp; t0 += 32) {
+            const int two = t0 + 16 < Tp;
+            _tile_zero(0);
+            _tile_zero(1);
+            _tile_zero(2);
+            _tile_zero(3);
+            for (int p0 = 0; p0 < C2; p0 += 16) {
+                _tile_loadd(4, Ub + (size_t)k0 * C2 + p0, lda);
+                _tile_loadd(5, Ub + (size_t)(k0 + 16) * C2 + p0, lda);
+                _tile_loadd(6, Vb + (size_t)p0 * Tp + t0, ldb);
+                _tile_dpbf16ps(0, 4, 6);
+                _tile_dpbf16ps(2, 5, 6);
+                if (two) {
+                    _tile_loadd(7, Vb + (size_t)p0 * Tp + t0 + 16, ldb);
+                    _tile_dpbf16ps(1, 4, 7);
+                    _tile_dpbf16ps(3, 5, 7);
+                }
+            }
+            _tile_stored(0, M + (size_t)k0 * Tp + t0, ldb);
+            _tile_stored(2, M + (size_t)(k0 + 16) * Tp + t0, ldb);
+            if (two) {
+                _tile_stored(1, M + (size_t)k0 * Tp + t0 + 16, ldb);
+                _tile_stored(3, M + (size_t)(k0 + 16) * Tp + t0 + 16, ldb);
+            }
+        }
+}
+
+static void amx_configure(void)
+{
+    amx_tile_config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.palette = 1;
+    for (int i = 0; i < 8; i++) {
+        cfg.colsb[i] = 64;
+        cfg.rows[i] = 16;
+    }
+    _tile_loadconfig(&cfg);
+}
+#else
+int conv_enable_amx(void)
+{
+    return 0;
+}
+#endif
+
+/* Columns of a chunk's V and M are padded to Tp, a multiple of 16, so every kernel works
+ * on whole vectors and tiles; the padding columns are zeroed in V and never read in M. */
 static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     int th, tw;
     winograd_tiles(L, &th, &tw);
-    const size_t plane = (size_t)H * W, T = (size_t)rows_in_chunk * tw;
-    float *V = scratch;                  // (16, C, T)
-    float *M = V + 16 * (size_t)C * T;   // (16, K, T)
-    float *rowbuf = M + 16 * (size_t)K * T; // 4 padded input rows
+    const size_t plane = (size_t)H * W, T = (size_t)rows_in_chunk * tw, Tp = (T + 15) / 16 * 16;
+    float *V = scratch;                      // (16, C, Tp)
+    float *M = V + 16 * (size_t)C * Tp;      // (16, K, Tp)
+    float *rowbuf = M + 16 * (size_t)K * Tp; // 4 padded input rows
     const size_t rf = row_floats(W);
     float *rows[4] = {rowbuf, rowbuf + rf, rowbuf + 2 * rf, rowbuf + 3 * rf};
     memset(rowbuf, 0, 4 * rf * sizeof(float));
@@ -321,13 +495,35 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
                 else
                     memset(rows[i] + 1, 0, (size_t)W * sizeof(float));
             }
-            input_transform_row(V + (size_t)c * T + (size_t)q * tw, (size_t)C * T, rows, tw);
+            input_transform_row(V + (size_t)c * Tp + (size_t)q * tw, (size_t)C * Tp, rows, tw);
         }
     }
+    if (Tp > T)
+        for (size_t i = 0; i < 16 * (size_t)C; i++)
+            memset(V + i * Tp + T, 0, (Tp - T) * sizeof(float));
 
-    for (int xi = 0; xi < 16; xi++)
-        gemm_kct(M + (size_t)xi * K * T, L->U + (size_t)xi * K * C, V + (size_t)xi * C * T, K,
-                 C, (int)T);
+#ifdef HAVE_AMX
+    if (L->Ub && L->amx && K % 32 == 0 && C % 32 == 0) {
+        amx_configure();
+        for (int xi = 0; xi < 16; xi++) {
+            float *v = V + (size_t)xi * C * Tp;
+            pack_bf16_pairs(v, C, (int)Tp);
+            gemm_amx(M + (size_t)xi * K * Tp, L->Ub + (size_t)xi * K * (C / 2),
+                     (const uint32_t *)v, K, C, (int)Tp);
+        }
+        _tile_release();
+    } else
+#endif
+#if defined(__AVX512F__) && defined(__AVX512BF16__)
+    if (L->Ub && K % 8 == 0 && C % 2 == 0) {
+        for (int xi = 0; xi < 16; xi++)
+            gemm_kct_bf16(M + (size_t)xi * K * Tp, L->Ub + (size_t)xi * K * (C / 2),
+                          V + (size_t)xi * C * Tp, K, C, (int)Tp);
+    } else
+#endif
+        for (int xi = 0; xi < 16; xi++)
+            gemm_kct(M + (size_t)xi * K * Tp, L->U + (size_t)xi * K * C,
+                     V + (size_t)xi * C * Tp, K, C, (int)Tp);
 
     for (int q = 0; q < rows_in_chunk; q++) {
         size_t r = row0 + (size_t)q;
@@ -335,7 +531,7 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
         for (int k = 0; k < K; k++) {
             float *o = L->out + ((size_t)n * K + k) * plane + (size_t)(2 * ty) * W;
             output_transform_row(o, 2 * ty + 1 < H ? o + W : NULL,
-                                 M + (size_t)k * T + (size_t)q * tw, (size_t)K * T, tw, W,
+                                 M + (size_t)k * Tp + (size_t)q * tw, (size_t)K * Tp, tw, W,
                                  L->bias[k], L->relu);
         }
     }

@@ -3,6 +3,7 @@
 #define IMSYNTH_NN_CONV3X3_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 /* One conv layer's forward pass over a batch, split into independent chunks of `chunk`
  * tile rows (Winograd) or output pixels (im2col), counted across the batch. */
@@ -12,6 +13,8 @@ typedef struct conv_layer {
     int N, C, K, H, W;
     int winograd;        /* 1: U is used; 0: weight is used */
     const float *U;      /* (16,K,C) Winograd-transformed weights */
+    const uint32_t *Ub;  /* fast path: U as bf16 channel pairs (16,K,C/2), or NULL */
+    int amx;             /* fast path may use AMX (conv_enable_amx() succeeded) */
     const float *weight; /* (K,C*9) */
     const float *bias;   /* (K) */
     int relu;            /* apply max(0, .) to the output */
@@ -19,6 +22,12 @@ typedef struct conv_layer {
 } conv_layer;
 
 void winograd_weights(float *U, const float *w, int K, int C);
+/* U rounded to bf16, channel pairs packed in 32 bits (C even). */
+void winograd_weights_bf16(uint32_t *Ub, const float *U, int K, int C);
+/* Whether this build has the bf16 kernels (AVX512_BF16); without, Ub is ignored. */
+int conv_have_bf16(void);
+/* Ask the kernel for the AMX tile state; 1 when AMX kernels may run in this process. */
+int conv_enable_amx(void);
 /* Chunk size for a buffer budget: tile rows (Winograd) or output pixels (im2col). */
 int conv_chunk_size(int winograd, int C, int K, int W, size_t budget);
 size_t conv_scratch_floats(int winograd, int C, int K, int W, int chunk);

@@ -260,6 +260,8 @@ struct vgg_workspace {
     int max_batch;
     float *act[2];                  /* ping-pong activations, max_batch * largest layer */
     float *U[VGG_CONV_LAYERS];      /* Winograd weights, or NULL for im2col layers */
+    uint32_t *Ub[VGG_CONV_LAYERS];  /* fast path: U as bf16 pairs, or NULL */
+    int amx;                        /* fast path on AMX tiles */
     int winograd[VGG_CONV_LAYERS];
     int chunk[VGG_CONV_LAYERS];
     float *gram_partial;            /* per-slice partial Grams of the largest tap */
@@ -439,6 +441,7 @@ vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, in
     ws->opt = *opt;
     ws->max_batch = max_batch < 1 ? 1 : max_batch;
     ws->threads = opt->threads < 1 ? 1 : opt->threads;
+    ws->amx = opt->precision == VGG_PRECISION_FAST && conv_enable_amx();
     size_t largest = (size_t)3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE, scratch_floats = 0,
            partial = 0;
     for (int l = 0; l < VGG_CONV_LAYERS; l++) {
@@ -461,6 +464,13 @@ vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, in
                 goto fail;
             winograd_weights(ws->U[l], net->weight[l], K, C);
             ws->bytes += 16 * (size_t)K * C * sizeof(float);
+            if (opt->precision == VGG_PRECISION_FAST && conv_have_bf16() && C % 2 == 0) {
+                ws->Ub[l] = malloc(16 * (size_t)K * (C / 2) * sizeof(uint32_t));
+                if (!ws->Ub[l])
+                    goto fail;
+                winograd_weights_bf16(ws->Ub[l], ws->U[l], K, C);
+                ws->bytes += 16 * (size_t)K * (C / 2) * sizeof(uint32_t);
+            }
         }
     }
     for (int i = 0; i < 2; i++) {
@@ -512,8 +522,10 @@ void vgg_workspace_free(vgg_workspace *ws)
         pthread_barrier_destroy(&ws->done);
         free(ws->tid);
     }
-    for (int l = 0; l < VGG_CONV_LAYERS; l++)
+    for (int l = 0; l < VGG_CONV_LAYERS; l++) {
         free(ws->U[l]);
+        free(ws->Ub[l]);
+    }
     free(ws->act[0]);
     free(ws->act[1]);
     free(ws->gram_partial);
@@ -548,7 +560,9 @@ void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out)
         const int tap = l == block_last_conv[block];
         float *y = ws->act[cur];
         conv_layer L = {.in = x, .out = y, .N = n, .C = C, .K = K, .H = s, .W = s,
-                        .winograd = ws->winograd[l], .U = ws->U[l], .weight = net->weight[l],
+                        .winograd = ws->winograd[l], .U = ws->U[l], .Ub = ws->Ub[l],
+                        .amx = ws->amx,
+                        .weight = net->weight[l],
                         .bias = net->bias[l], .relu = !tap || ws->opt.post_relu,
                         .chunk = ws->chunk[l]};
         run_job(ws, conv_job, &L, conv_chunk_count(&L));

@@ -17,6 +17,10 @@
 #include "test_nn_util.h"
 
 #define OUT IMSYNTH_BINARY_DIR "/nn_torch_full/"
+/* The fast path (bf16 products, fp32 sums): each bf16 rounding is within 2^-9 relative;
+ * over 16 layers the descriptor moved by 0.55-0.67% of each layer's largest magnitude
+ * when measured (BENCHMARKS.md). 1% is the documented promise. */
+#define FAST_TOLERANCE 1e-2
 
 static void compare(const vgg19 *net, const float *input, const char *file, vgg_pool pool,
                     int post_relu, vgg_precision precision, double tol)
@@ -79,6 +83,8 @@ static void test_full_vgg19_against_torch(void **state)
     }
     compare(&net, input, "expected_avg3_pre.npy", VGG_POOL_AVG3, 0, VGG_PRECISION_FP32, 1e-4);
     compare(&net, input, "expected_max2_post.npy", VGG_POOL_MAX2, 1, VGG_PRECISION_FP32, 1e-4);
+    compare(&net, input, "expected_avg3_pre.npy", VGG_POOL_AVG3, 0, VGG_PRECISION_FAST, FAST_TOLERANCE);
+    compare(&net, input, "expected_max2_post.npy", VGG_POOL_MAX2, 1, VGG_PRECISION_FAST, FAST_TOLERANCE);
     vgg19_free(&net);
     free(lin);
     free(input);
