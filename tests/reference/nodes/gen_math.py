@@ -12,7 +12,7 @@ operand is exactly 0 (division, modulo, snap, ping-pong and logarithm by zero). 
 adds a y sweep 128 times finer to an x sweep, so a one-operand op is seen at 16384
 distinct points. Several operations share a case graph: their float results go to the
 X, Y and Z of a Combine XYZ whose Vector is the compared socket (Cycles' film handles
-the three channels independently).
+the three channels independently, except for the overflow rule below).
 
 Non-finite results: Cycles' film replaces any non-finite component of a sample by 0
 (kernel/film/light_passes.h, film_clamp_light -> ensure_finite), so Blender's EXR holds
@@ -31,9 +31,16 @@ runs in a Debian trixie chroot whose glibc (2.41) rounds a few transcendental fu
 from the host's glibc 2.36 that our build uses; those cases differ from 4.3 by at most
 1.5e-5 (sinh near 1e2), well inside the tolerance. The notes of those cases say so.
 
-Magnitudes: the comparison is absolute (1e-4), so outputs are kept below about 1e3
-where a result could legitimately differ in its last bit; huge inputs (1e30) are fed
-only to operations whose outputs are bounded, or overflow to inf on purpose.
+Magnitudes: the comparison is absolute (1e-4), so the transcendental functions that 4.3
+rounds differently keep their outputs below about 1e3 (tangent stays away from its
+poles); exactly rounded operations (arithmetic, fmod, powf, which agree bit for bit)
+may go higher. Huge inputs (1e30) are fed only to operations whose outputs are bounded,
+or overflow to inf on purpose.
+
+Also measured, not a case (the 1e-4 tolerance cannot see it): the float Map Range's
+clamp is a Clamp node Cycles appends for every interpolation, so SMOOTHSTEP with To
+(-1.32, 1.5) reads exactly 1.5 at factor 1, while the vector Map Range ignores clamp for
+the smooth interpolations and reads 1.5000001 there; the kernels do the same.
 """
 import os
 import sys
