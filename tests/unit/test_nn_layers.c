@@ -179,6 +179,61 @@ static void test_random_init(void **state)
     vgg19_free(&b);
 }
 
+/* A texture: oriented stripes of period `period` at angle `angle` plus a finer cross
+ * pattern, shifted by (dx, dy), in [0,1], RGB with per-channel phase. */
+static void texture(float *px, int size, double period, double angle, int dx, int dy)
+{
+    for (int y = 0; y < size; y++)
+        for (int x = 0; x < size; x++)
+            for (int c = 0; c < 3; c++) {
+                double u = (x + dx) * cos(angle) + (y + dy) * sin(angle);
+                double v = 0.5 + 0.35 * sin(6.283185 * u / period + c) +
+                           0.1 * sin(6.283185 * (x + dx) / 5.0) * sin(6.283185 * (y + dy) / 7.0);
+                px[((size_t)y * size + x) * 3 + c] = (float)v;
+            }
+}
+
+/* What "usable texture statistics" means for the default random network: a Gram
+ * descriptor barely moves when the same texture is shifted, and moves far more for a
+ * different texture, at every layer. */
+static void test_random_init_separates_textures(void **state)
+{
+    vgg19 net;
+    assert_int_equal(vgg19_init_random(&net, vgg19_standard_width, 1), 0);
+    const int size = 256;
+    float *px = malloc((size_t)size * size * 3 * sizeof(float));
+    float *in = malloc(4 * 3 * 224 * 224 * sizeof(float));
+    const double spec[4][4] = {{9, 0.3, 0, 0}, {9, 0.3, 17, 29}, {23, 1.2, 0, 0}, {23, 1.2, 17, 29}};
+    for (int i = 0; i < 4; i++) {
+        texture(px, size, spec[i][0], spec[i][1], (int)spec[i][2], (int)spec[i][3]);
+        vgg_preprocess(in + (size_t)i * 3 * 224 * 224, px, size, size, 3);
+    }
+    size_t row = vgg19_descriptor_size(&net), off[6];
+    vgg19_descriptor_offsets(&net, off);
+    float *d = malloc(4 * row * sizeof(float));
+    vgg_options opt = {.pool = VGG_POOL_AVG3, .threads = 2};
+    vgg_workspace *ws = vgg_workspace_create(&net, &opt, 4);
+    assert_non_null(ws);
+    vgg_describe(ws, in, 4, d);
+    for (int l = 0; l < 5; l++) {
+        double same = 0, other = 0, norm = 0;
+        for (size_t i = off[l]; i < off[l + 1]; i++) {
+            double a0 = d[i], a1 = d[row + i], b0 = d[2 * row + i];
+            same += (a0 - a1) * (a0 - a1);
+            other += (a0 - b0) * (a0 - b0);
+            norm += a0 * a0;
+        }
+        printf("layer %d: |A - A shifted| = %.3g, |A - B| = %.3g (relative to |A|)\n", l,
+               sqrt(same / norm), sqrt(other / norm));
+        assert_true(sqrt(same) * 10 < sqrt(other));
+    }
+    vgg_workspace_free(ws);
+    vgg19_free(&net);
+    free(px);
+    free(in);
+    free(d);
+}
+
 static void test_npy_roundtrip(void **state)
 {
     char path[] = "/tmp/test_nn_npy_XXXXXX";
@@ -220,6 +275,7 @@ int main(void)
         cmocka_unit_test(test_gram_upper),
         cmocka_unit_test(test_preprocess_crop_clamp_normalise),
         cmocka_unit_test(test_random_init),
+        cmocka_unit_test(test_random_init_separates_textures),
         cmocka_unit_test(test_npy_roundtrip),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
