@@ -15,6 +15,7 @@ enum { EXIT_OK = 0, EXIT_FAILURE_WORK = 1, EXIT_USAGE = 2 };
 int cmd_eval_graph(int argc, char **argv);
 int cmd_describe(int argc, char **argv);
 int cmd_sample(int argc, char **argv);
+int cmd_render(int argc, char **argv);
 
 /* Prints "imsynth <sub>: <message>" to stderr. */
 void cli_error(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

@@ -13,6 +13,7 @@ typedef struct subcommand {
 
 static const subcommand subcommands[] = {
     {"eval-graph", cmd_eval_graph, "evaluate a node socket over the scene's plane into an image"},
+    {"render", cmd_render, "path-trace a material on the scene's plane as Cycles would (EXR, PNG)"},
     {"sample", cmd_sample, "the super-shader parameter set of frame N, as JSON"},
 #ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},

@@ -1,0 +1,88 @@
+/*
+ * Cycles' pixel filter and the orthographic camera.
+ *
+ * Filter: Cycles does not weight samples by the filter; it distributes the camera rays'
+ * positions with the filter's density, separably in x and y, by reading an inverted CDF
+ * table, and every sample then counts equally in the pixel's mean. For Blackman-Harris it
+ * doubles the user's width first, so "1.5 px" is a window 3 px wide (support +-1.5 px).
+ * We build our own table from the window's closed-form integral, inverted by bisection,
+ * and read it with linear interpolation as Cycles reads its table.
+ */
+#include "render/render_internal.h"
+
+#define BH_A0 0.35875
+#define BH_A1 0.48829
+#define BH_A2 0.14128
+#define BH_A3 0.01168
+
+/* Integral of the window over phase [0, v] (v = 2 pi (x / W + 1/2), W the full width). */
+static double bh_integral(double v)
+{
+    return BH_A0 * v - BH_A1 * sin(v) + BH_A2 * sin(2.0 * v) / 2.0 - BH_A3 * sin(3.0 * v) / 3.0;
+}
+
+void pixel_filter_init(pixel_filter *f, float width)
+{
+    f->width = width;
+    double full = 2.0 * (double)width; /* Cycles' doubling for Blackman-Harris */
+    double total = bh_integral(2.0 * M_PI);
+    for (int i = 0; i < FILTER_TABLE_SIZE; i++) {
+        double target = (double)i / (FILTER_TABLE_SIZE - 1) * total;
+        double lo = 0.0, hi = 2.0 * M_PI;
+        for (int it = 0; it < 60; it++) { /* the integral increases: the window is >= 0 */
+            double mid = 0.5 * (lo + hi);
+            if (bh_integral(mid) < target)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        double v = 0.5 * (lo + hi);
+        f->table[i] = (float)((v / (2.0 * M_PI) - 0.5) * full);
+    }
+}
+
+float pixel_filter_sample(const pixel_filter *f, float u)
+{
+    float x = fminf(fmaxf(u, 0.0f), 1.0f) * (FILTER_TABLE_SIZE - 1);
+    int i = (int)x;
+    if (i >= FILTER_TABLE_SIZE - 1)
+        return f->table[FILTER_TABLE_SIZE - 1];
+    float t = x - (float)i;
+    return (1.0f - t) * f->table[i] + t * f->table[i + 1];
+}
+
+float pixel_filter_eval(const pixel_filter *f, float x)
+{
+    double full = 2.0 * (double)f->width;
+    if (fabs(x) > 0.5 * full)
+        return 0.0f;
+    double v = 2.0 * M_PI * ((double)x / full + 0.5);
+    return (float)(BH_A0 - BH_A1 * cos(v) + BH_A2 * cos(2.0 * v) - BH_A3 * cos(3.0 * v));
+}
+
+void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], float D[3],
+                      float *dP)
+{
+    /* Blender's ortho_scale spans the larger side; pixels are square. */
+    int side = c->width > c->height ? c->width : c->height;
+    float pixel = c->ortho_scale / (float)side;
+    float sx = (rx - 0.5f * (float)c->width) * pixel;
+    float sy = (0.5f * (float)c->height - ry) * pixel; /* row 0 at the top */
+    for (int k = 0; k < 3; k++) {
+        P[k] = c->position[k] + sx * c->right[k] + sy * c->up[k];
+        D[k] = c->forward[k];
+    }
+    /* Cycles' compact differential: the mean of the x and y pixel extents. */
+    *dP = pixel;
+}
+
+void render_make_orthonormals(const float N[3], float a[3], float b[3])
+{
+    if (N[0] != N[1] || N[0] != N[2]) {
+        a[0] = N[2] - N[1], a[1] = N[0] - N[2], a[2] = N[1] - N[0];
+    } else {
+        a[0] = N[2] - N[1], a[1] = N[0] + N[2], a[2] = -N[1] - N[0];
+    }
+    v3_normalize(a);
+    v3_cross(N, a, b);
+}

@@ -1,0 +1,105 @@
+/*
+ * Blender's point light with a radius, as Cycles 3.4 and 4.3 treat it.
+ *
+ * Facing disk (3.4 always; 4.3 with Soft Falloff, Blender's default): a disk of radius r
+ * at the light's centre whose normal points at the shading point. Sampled uniformly by
+ * area, so the solid-angle pdf is (1 / (pi r^2)) * t^2 / cos, cos between the disk normal
+ * and the direction back to the shading point. A ray hits it where it crosses that disk.
+ *
+ * Sphere (4.3 with Soft Falloff off): the cone the sphere subtends, sampled uniformly.
+ *
+ * Either way the radiance is the same constant (render_internal.h), which is what makes
+ * next-event estimation and BSDF sampling two estimators of one integral, combined with
+ * MIS in integrator.c.
+ */
+#include "render/render_internal.h"
+
+static void disk_frame(const point_light *l, const float P[3], float n[3], float *dist)
+{
+    for (int k = 0; k < 3; k++)
+        n[k] = P[k] - l->position[k];
+    *dist = v3_normalize(n);
+}
+
+int point_light_sample(const point_light *l, const float P[3], float u, float v,
+                       light_sample *out)
+{
+    float n[3], d;
+    disk_frame(l, P, n, &d);
+    if (d <= l->radius || l->radius <= 0.0f)
+        return 0; /* inside the light: not a case of this scene */
+    if (l->sphere) {
+        float sin2 = (l->radius * l->radius) / (d * d);
+        float cos_max = sqrtf(fmaxf(0.0f, 1.0f - sin2));
+        float cos_t = 1.0f - u * (1.0f - cos_max);
+        float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
+        float phi = 2.0f * (float)M_PI * v;
+        float a[3], b[3], axis[3] = {-n[0], -n[1], -n[2]};
+        render_make_orthonormals(axis, a, b);
+        for (int k = 0; k < 3; k++)
+            out->wi[k] = sin_t * cosf(phi) * a[k] + sin_t * sinf(phi) * b[k] + cos_t * axis[k];
+        /* Distance to the sphere's near side along wi (law of cosines). */
+        out->t = d * cos_t - sqrtf(fmaxf(0.0f, l->radius * l->radius - d * d * sin_t * sin_t));
+        out->pdf = 1.0f / (2.0f * (float)M_PI * (1.0f - cos_max));
+        return 1;
+    }
+    /* Uniform point in the unit disk (Shirley-Chiu concentric map: area preserving). */
+    float sx = 2.0f * u - 1.0f, sy = 2.0f * v - 1.0f, r, phi;
+    if (sx == 0.0f && sy == 0.0f) {
+        r = 0.0f, phi = 0.0f;
+    } else if (fabsf(sx) > fabsf(sy)) {
+        r = sx, phi = (float)M_PI / 4.0f * (sy / sx);
+    } else {
+        r = sy, phi = (float)M_PI / 2.0f - (float)M_PI / 4.0f * (sx / sy);
+    }
+    float a[3], b[3];
+    render_make_orthonormals(n, a, b);
+    float q[3];
+    for (int k = 0; k < 3; k++)
+        q[k] = l->position[k] + l->radius * r * (cosf(phi) * a[k] + sinf(phi) * b[k]) - P[k];
+    out->t = v3_normalize(q);
+    for (int k = 0; k < 3; k++)
+        out->wi[k] = q[k];
+    float cos_l = -v3_dot(n, out->wi);
+    if (cos_l <= 0.0f)
+        return 0;
+    out->pdf = out->t * out->t / (cos_l * (float)M_PI * l->radius * l->radius);
+    return 1;
+}
+
+int point_light_intersect(const point_light *l, const float P[3], const float wi[3], float *t,
+                          float *pdf)
+{
+    float n[3], d;
+    disk_frame(l, P, n, &d);
+    if (d <= l->radius || l->radius <= 0.0f)
+        return 0;
+    if (l->sphere) {
+        float oc[3] = {P[0] - l->position[0], P[1] - l->position[1], P[2] - l->position[2]};
+        float bq = v3_dot(oc, wi), c = v3_dot(oc, oc) - l->radius * l->radius;
+        float disc = bq * bq - c;
+        if (disc < 0.0f)
+            return 0;
+        float th = -bq - sqrtf(disc);
+        if (th <= 0.0f)
+            return 0;
+        float sin2 = (l->radius * l->radius) / (d * d);
+        float cos_max = sqrtf(fmaxf(0.0f, 1.0f - sin2));
+        *t = th;
+        *pdf = 1.0f / (2.0f * (float)M_PI * (1.0f - cos_max));
+        return 1;
+    }
+    /* The disk through the centre with normal n (towards P): P + t wi meets its plane at
+     * t = d / cos, cos = -n.wi; inside when within r of the centre. */
+    float cos_l = -v3_dot(n, wi);
+    if (cos_l <= 0.0f)
+        return 0;
+    float th = d / cos_l, q[3];
+    for (int k = 0; k < 3; k++)
+        q[k] = P[k] + th * wi[k] - l->position[k];
+    if (v3_dot(q, q) >= l->radius * l->radius)
+        return 0;
+    *t = th;
+    *pdf = th * th / (cos_l * (float)M_PI * l->radius * l->radius);
+    return 1;
+}

@@ -1,0 +1,74 @@
+/*
+ * render: path tracing of the scene of DESIGN.md (assets/scene.json) with a material
+ * graph's Principled BSDF, so that the expected value of every pixel is what Blender's
+ * Cycles (3.4 or 4.3) renders for the same material and scene.
+ *
+ *   render_scene *s = render_scene_load("assets/scene.json", err, sizeof err);
+ *   render_material *m = render_material_new(graph, 4, err, sizeof err);
+ *   render_options o; render_options_default(&o);
+ *   image img; render_image(s, m, &o, &img, NULL, err, sizeof err);
+ *
+ * Determinism: a pixel is a pure function of (scene, material, options minus threads):
+ * every random number derives from (seed, pixel, sample, dimension), so the result does
+ * not depend on the thread count or tile order.
+ *
+ * Nothing here keeps global mutable state; scenes and materials are immutable once
+ * built and may be shared by threads.
+ */
+#ifndef IMSYNTH_RENDER_H
+#define IMSYNTH_RENDER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "imageio/imageio.h"
+#include "shadergraph/shadergraph.h"
+
+typedef struct render_scene render_scene;
+
+/* Load and validate a scene file (format "imsynth-scene/1", see assets/scene.json). On
+ * failure returns NULL with a message naming the file and the place. */
+render_scene *render_scene_load(const char *path, char *err, size_t errlen);
+render_scene *render_scene_load_json(const char *text, size_t len, const char *source_name,
+                                     char *err, size_t errlen);
+void render_scene_free(render_scene *s);
+void render_scene_resolution(const render_scene *s, int *width, int *height);
+
+/* The material: the graph's Principled BSDF inputs compiled for the evaluator. */
+typedef struct render_material render_material;
+render_material *render_material_new(const sg_graph *g, int blender, char *err, size_t errlen);
+void render_material_free(render_material *m);
+
+typedef enum render_mode {
+    RENDER_FAST = 0,     /* default: same expected value, much less noise */
+    RENDER_REFERENCE = 1 /* plain Monte Carlo, one path per sample, for verification */
+} render_mode;
+
+typedef struct render_options {
+    render_mode mode;
+    int spp;           /* samples per pixel: paths (reference) or shading points (fast) */
+    int light_samples; /* fast mode: light and BSDF sample pairs per shading point */
+    int blender;       /* 4 (default) or 3: BSDF semantics; light model follows */
+    int threads;       /* 0 = all cores */
+    uint64_t seed;
+    int width, height; /* 0 = the scene's resolution */
+} render_options;
+
+void render_options_default(render_options *o);
+
+/* What happened during a render, for tests and the benchmark. */
+typedef struct render_stats {
+    double seconds;
+    uint64_t camera_rays, shading_points, shadow_rays;
+    /* Rays leaving a surface that hit geometry again. This integrator stops there (the
+     * scene's plane cannot see itself); a scene where this is non-zero needs more bounces
+     * and the render is then darker than Cycles'. */
+    uint64_t indirect_hits;
+} render_stats;
+
+/* Renders an RGB image (allocated here; free with image_free). stats may be NULL.
+ * Returns 0, or -1 with a message. */
+int render_image(const render_scene *s, const render_material *m, const render_options *o,
+                 image *out, render_stats *stats, char *err, size_t errlen);
+
+#endif
