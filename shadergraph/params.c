@@ -287,42 +287,58 @@ int sg_params_read_file(const char *path, sg_params *p, sg_error *err)
     return rc;
 }
 
-/* The shortest %g form that reads back as the same float (at most 9 digits, which
- * always suffice), so sampled values print as 0.017, not 0.0170000009. */
-static size_t format_float(char *buf, size_t cap, float v)
+/* The shortest %g form that reads back as the same float (9 significant digits always
+ * suffice), so sampled values print as 0.017, not 0.0170000009. buf holds 32 bytes. */
+static void format_float(char buf[32], float v)
 {
-    int n = 0;
     for (int prec = 1; prec <= 9; prec++) {
-        n = snprintf(buf, cap, "%.*g", prec, (double)v);
+        snprintf(buf, 32, "%.*g", prec, (double)v);
         if (strtof(buf, NULL) == v)
-            break;
+            return;
     }
-    return n > 0 ? (size_t)n : 0;
 }
 
 char *sg_params_to_json(const sg_params *p)
 {
     /* By hand rather than through cJSON so that the order is p's and every number
-     * reads back as the same float. */
-    size_t cap = 64;
+     * reads back as the same float. Size: per entry at most 6 bytes per name byte
+     * (\u00XX escapes), 15 for the number, 8 for punctuation. */
+    size_t cap = 8;
     for (int i = 0; i < p->n; i++)
-        cap += 2 * strlen(p->names[i]) + 48;
+        cap += 6 * strlen(p->names[i]) + 40;
     char *s = malloc(cap);
     if (!s)
         return NULL;
     size_t at = 0;
-    at += (size_t)snprintf(s + at, cap - at, "{");
+    s[at++] = '{';
     for (int i = 0; i < p->n; i++) {
-        at += (size_t)snprintf(s + at, cap - at, "%s\n  \"", i ? "," : "");
+        if (i)
+            s[at++] = ',';
+        memcpy(s + at, "\n  \"", 4);
+        at += 4;
         for (const char *c = p->names[i]; *c; c++) {
-            if (*c == '"' || *c == '\\')
+            unsigned char ch = (unsigned char)*c;
+            if (ch < 0x20) {
+                static const char hex[] = "0123456789abcdef";
+                memcpy(s + at, "\\u00", 4);
+                s[at + 4] = hex[ch >> 4];
+                s[at + 5] = hex[ch & 15];
+                at += 6;
+                continue;
+            }
+            if (ch == '"' || ch == '\\')
                 s[at++] = '\\';
-            s[at++] = *c;
+            s[at++] = (char)ch;
         }
-        at += (size_t)snprintf(s + at, cap - at, "\": ");
-        at += format_float(s + at, cap - at, p->values[i]);
+        char num[32];
+        format_float(num, p->values[i]);
+        size_t nl = strlen(num);
+        memcpy(s + at, "\": ", 3);
+        at += 3;
+        memcpy(s + at, num, nl);
+        at += nl;
     }
-    snprintf(s + at, cap - at, "\n}\n");
+    memcpy(s + at, "\n}\n", 4);
     return s;
 }
 
