@@ -1,0 +1,418 @@
+/*
+ * The renderer's pieces, each against an independent statement of what it must do:
+ * - camera + shading geometry: a ray through a pixel centre hits the point, normal,
+ *   Generated/UV coordinates and differentials that shadergraph's sg_plane_geometry
+ *   (the node references' geometry, checked against Blender) gives for that pixel;
+ * - pixel filter: sampled offsets follow the Blackman-Harris density of full width
+ *   2 x 1.5 px (Kolmogorov-Smirnov distance to the closed-form CDF);
+ * - sampler and permutations: uniform, independent of call order, bijective;
+ * - light: the irradiance its samples estimate equals the analytic value (on the axis of
+ *   the facing disk exactly; off axis the small-sphere law), and BSDF-sampled hits
+ *   estimate the same integral as light samples (pdfs consistent);
+ * - scene file errors name the file and the place;
+ * - whole renders: identical bits for 1, 2 and 3 threads; fast and reference modes agree
+ *   to within their noise.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include <math.h>
+
+#include "render/render_internal.h"
+
+static render_scene *load_scene(void)
+{
+    char err[512];
+    render_scene *s = render_scene_load(IMSYNTH_SOURCE_DIR "/assets/scene.json", err, sizeof err);
+    if (!s)
+        fail_msg("%s", err);
+    return s;
+}
+
+static void test_camera_hits_pixel_centres(void **state)
+{
+    (void)state;
+    render_scene *s = load_scene();
+    int w = s->camera.width, h = s->camera.height;
+    assert_int_equal(w, 256);
+    assert_int_equal(h, 256);
+    int n = w; /* one row at a time */
+    float *storage = malloc(sizeof(float) * 48 * (size_t)n);
+    assert_non_null(storage);
+    int rows[] = {0, 77, 128, 255};
+    for (int r = 0; r < 4; r++) {
+        int py = rows[r];
+        sg_geometry_batch gb;
+        sg_plane_geometry(w, h, py * w, n, storage, &gb);
+        for (int px = 0; px < w; px += 5) {
+            float P[3], D[3], dP;
+            ortho_camera_ray(&s->camera, (float)px + 0.5f, (float)py + 0.5f, P, D, &dP);
+            struct RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
+            struct RTCRayHit rh;
+            memset(&rh, 0, sizeof rh);
+            rh.ray.org_x = P[0], rh.ray.org_y = P[1], rh.ray.org_z = P[2];
+            rh.ray.dir_x = D[0], rh.ray.dir_y = D[1], rh.ray.dir_z = D[2];
+            rh.ray.tfar = INFINITY;
+            rh.ray.mask = 0xffffffffu;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(s->rtc, &ctx, &rh);
+            assert_int_equal(rh.hit.geomID, 0);
+            assert_true(fabsf(rh.ray.tfar - 2.0f) < 1e-5f);
+            shading_geometry g;
+            render_shading_geometry(s, 0, rh.hit.primID, rh.hit.u, rh.hit.v, D, dP, &g);
+            const float *mine[] = {g.P, g.dPdx, g.dPdy, g.N, g.Ng, g.I, g.generated,
+                                   g.dgenerated_dx, g.dgenerated_dy, g.uv, g.duv_dx, g.duv_dy};
+            const float *theirs[] = {gb.P, gb.dPdx, gb.dPdy, gb.N, gb.Ng, gb.I, gb.generated,
+                                     gb.dgenerated_dx, gb.dgenerated_dy, gb.uv, gb.duv_dx,
+                                     gb.duv_dy};
+            for (int f = 0; f < 12; f++)
+                for (int c = 0; c < 3; c++) {
+                    float a = mine[f][c], b = theirs[f][(size_t)c * (size_t)n + (size_t)px];
+                    if (fabsf(a - b) > 2e-6f)
+                        fail_msg("pixel (%d,%d) field %d[%d]: ours %.8g, plane %.8g", px, py,
+                                 f, c, (double)a, (double)b);
+                }
+        }
+    }
+    free(storage);
+    render_scene_free(s);
+}
+
+/* CDF of the Blackman-Harris window of full width W at offset x (closed form). */
+static double bh_cdf(double x, double W)
+{
+    double v = 2.0 * M_PI * (x / W + 0.5);
+    double F = 0.35875 * v - 0.48829 * sin(v) + 0.14128 * sin(2 * v) / 2 -
+               0.01168 * sin(3 * v) / 3;
+    return F / (0.35875 * 2.0 * M_PI);
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+static void test_filter_distribution(void **state)
+{
+    (void)state;
+    pixel_filter f;
+    pixel_filter_init(&f, 1.5f);
+    enum { N = 200000 };
+    float *x = malloc(sizeof(float) * N);
+    assert_non_null(x);
+    for (int i = 0; i < N; i++)
+        x[i] = pixel_filter_sample(&f, render_random(7, (uint32_t)i, 0, DIM_FILTER_X));
+    qsort(x, N, sizeof(float), cmp_float);
+    assert_true(x[0] >= -1.5f && x[N - 1] <= 1.5f);
+    double ks = 0.0;
+    for (int i = 0; i < N; i++) {
+        double F = bh_cdf(x[i], 3.0);
+        ks = fmax(ks, fmax(fabs(F - (double)i / N), fabs(F - (double)(i + 1) / N)));
+    }
+    /* 1.63 / sqrt(N) is the 1% critical value of the KS statistic. */
+    if (ks > 1.63 / sqrt((double)N))
+        fail_msg("KS distance %.5f", ks);
+    /* A narrower window (width not doubled) would put ~all samples within +-0.75 px. */
+    int outside = 0;
+    for (int i = 0; i < N; i++)
+        outside += fabsf(x[i]) > 0.75f;
+    double expect = 2.0 * bh_cdf(-0.75, 3.0);
+    assert_true(fabs((double)outside / N - expect) < 0.01);
+    /* Symmetric, centred, monotone table. */
+    assert_true(fabsf(pixel_filter_sample(&f, 0.5f)) < 1e-4f);
+    for (int i = 1; i < FILTER_TABLE_SIZE; i++)
+        assert_true(f.table[i] >= f.table[i - 1]);
+    assert_true(pixel_filter_eval(&f, 0.0f) > 0.99f && pixel_filter_eval(&f, 1.6f) == 0.0f);
+    free(x);
+}
+
+static void test_sampler(void **state)
+{
+    (void)state;
+    /* Uniform: mean and variance of many draws across all coordinates. */
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (uint32_t p = 0; p < 200; p++)
+        for (uint32_t s = 0; s < 50; s++)
+            for (uint32_t d = 0; d < DIM_COUNT; d++) {
+                float u = render_random(3, p, s, d);
+                assert_true(u >= 0.0f && u < 1.0f);
+                sum += u, sum2 += (double)u * u, n++;
+            }
+    double mean = sum / n, var = sum2 / n - mean * mean;
+    assert_true(fabs(mean - 0.5) < 0.01);
+    assert_true(fabs(var - 1.0 / 12) < 0.003);
+    /* Pure function of the coordinates; seeds differ. */
+    assert_true(render_random(3, 10, 2, 1) == render_random(3, 10, 2, 1));
+    assert_true(render_random(3, 10, 2, 1) != render_random(4, 10, 2, 1));
+    /* Adjacent dimensions are uncorrelated. */
+    double c = 0;
+    for (uint32_t p = 0; p < 20000; p++)
+        c += (render_random(1, p, 0, 0) - 0.5) * (render_random(1, p, 0, 1) - 0.5);
+    assert_true(fabs(c / 20000) < 0.005);
+    /* Permutations are bijections of [0, n). */
+    for (uint32_t m = 1; m <= 70; m += 3) {
+        int seen[70] = {0};
+        for (uint32_t i = 0; i < m; i++) {
+            uint32_t j = render_permute(i, m, 12345 + m);
+            assert_true(j < m);
+            seen[j]++;
+        }
+        for (uint32_t i = 0; i < m; i++)
+            assert_int_equal(seen[i], 1);
+    }
+}
+
+static void test_light_irradiance(void **state)
+{
+    (void)state;
+    point_light l = {{0.45f, 0.35f, 0.55f}, 0.1f, {1.0f, 1.0f, 1.0f}, 1, 0};
+    float Le = 9.25f / (4.0f * (float)M_PI * (float)M_PI * 0.01f);
+    for (int k = 0; k < 3; k++)
+        l.radiance[k] = Le;
+    for (int sphere = 0; sphere < 2; sphere++) {
+        l.sphere = sphere;
+        /* Directly below: the facing disk's irradiance is Le pi r^2 / (d^2 + r^2); the
+         * sphere's is Le pi r^2 / d^2 (its cone, sin^2 = r^2/d^2). */
+        float P[3] = {0.45f, 0.35f, 0.0f}, N[3] = {0, 0, 1};
+        double E = 0.0;
+        enum { S = 200000 };
+        for (int i = 0; i < S; i++) {
+            light_sample ls;
+            if (point_light_sample(&l, P, render_random(1, 0, (uint32_t)i, 0),
+                                   render_random(1, 0, (uint32_t)i, 1), &ls))
+                E += Le * fmaxf(0.0f, v3_dot(ls.wi, N)) / ls.pdf;
+        }
+        E /= S;
+        double d2 = 0.55 * 0.55, r2 = 0.01;
+        double exact = sphere ? Le * M_PI * r2 / d2 : Le * M_PI * r2 / (d2 + r2);
+        /* (Both are Le pi sin^2(alpha) cos(theta) for the cone of half-angle alpha the
+         * light subtends; the disk faces the point, so the point is on its axis.) */
+        if (fabs(E - exact) > 1e-3 * exact)
+            fail_msg("%s: irradiance %.6f, analytic %.6f", sphere ? "sphere" : "disk", E,
+                     exact);
+        /* Power convention: far away the light is a point of intensity P / (4 pi). */
+        double point = 9.25 / (4 * M_PI) / d2;
+        assert_true(fabs(E - point) < 0.04 * point);
+
+        /* Off axis: light sampling and cosine-sampled BSDF rays that hit the light
+         * estimate the same integral. */
+        float Q[3] = {-0.3f, 0.1f, 0.0f};
+        double El = 0, Eb = 0;
+        for (int i = 0; i < S; i++) {
+            light_sample ls;
+            if (point_light_sample(&l, Q, render_random(2, 0, (uint32_t)i, 0),
+                                   render_random(2, 0, (uint32_t)i, 1), &ls))
+                El += Le * fmaxf(0.0f, v3_dot(ls.wi, N)) / ls.pdf;
+        }
+        enum { SB = 4000000 };
+        for (int i = 0; i < SB; i++) {
+            float u1 = render_random(3, 0, (uint32_t)i, 0), u2 = render_random(3, 0, (uint32_t)i, 1);
+            float rr = sqrtf(u1), phi = 2.0f * (float)M_PI * u2;
+            float wi[3] = {rr * cosf(phi), rr * sinf(phi), sqrtf(fmaxf(0.0f, 1.0f - u1))};
+            float t, pdf;
+            if (point_light_intersect(&l, Q, wi, &t, &pdf))
+                Eb += Le * M_PI; /* f_cos / pdf for cosine sampling is pi */
+        }
+        El /= S, Eb /= SB;
+        /* Exact: a uniform cone of half-angle alpha around axis a, wholly above the
+         * surface, gives integral of cos = pi sin^2(alpha) (a . N). */
+        float dv[3] = {l.position[0] - Q[0], l.position[1] - Q[1], l.position[2] - Q[2]};
+        double dd = v3_dot(dv, dv), cosq = dv[2] / sqrt(dd);
+        double sin2 = sphere ? r2 / dd : r2 / (dd + r2);
+        double exact_q = Le * M_PI * sin2 * cosq;
+        if (fabs(El - exact_q) > 2e-3 * exact_q || fabs(Eb - El) > 0.01 * El)
+            fail_msg("%s off axis: light %.6f, bsdf %.6f, analytic %.6f",
+                     sphere ? "sphere" : "disk", El, Eb, exact_q);
+    }
+}
+
+static void test_scene_errors(void **state)
+{
+    (void)state;
+    char err[512];
+    const char *bad[][2] = {
+        {"{\"format\": \"imsynth-scene/1\"}", "resolution"},
+        {"{\"format\": \"x\"}", "format"},
+        {"[1,", "invalid JSON"},
+    };
+    for (int i = 0; i < 3; i++) {
+        render_scene *s = render_scene_load_json(bad[i][0], strlen(bad[i][0]), "bad.json", err,
+                                                 sizeof err);
+        assert_null(s);
+        assert_non_null(strstr(err, "bad.json"));
+        assert_non_null(strstr(err, bad[i][1]));
+    }
+    /* A bad face index deep inside is named by its path. */
+    FILE *f = fopen(IMSYNTH_SOURCE_DIR "/assets/scene.json", "rb");
+    assert_non_null(f);
+    char text[4096];
+    size_t len = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[len] = 0;
+    char *at = strstr(text, "[[0, 1, 2, 3]]");
+    assert_non_null(at);
+    memcpy(at, "[[0, 1, 2, 9]]", 14);
+    render_scene *s = render_scene_load_json(text, len, "scene.json", err, sizeof err);
+    assert_null(s);
+    assert_non_null(strstr(err, "objects[0].faces[0][3]"));
+    assert_null(render_scene_load("/nonexistent/scene.json", err, sizeof err));
+    assert_non_null(strstr(err, "/nonexistent/scene.json"));
+}
+
+static const char *const graph_json =
+    "{\"format\": \"imsynth-graph/1\", \"name\": \"t\", \"nodes\": ["
+    "{\"name\": \"Noise\", \"type\": \"ShaderNodeTexNoise\", \"location\": [-300, 0],"
+    " \"inputs\": {\"Scale\": 8.0}},"
+    "{\"name\": \"Principled BSDF\", \"type\": \"ShaderNodeBsdfPrincipled\","
+    " \"location\": [0, 0], \"inputs\": {\"Roughness\": 0.4}},"
+    "{\"name\": \"Material Output\", \"type\": \"ShaderNodeOutputMaterial\","
+    " \"location\": [300, 0]}],"
+    " \"links\": [{\"from_node\": \"Noise\", \"from_socket\": \"Color\","
+    " \"to_node\": \"Principled BSDF\", \"to_socket\": \"Base Color\"},"
+    "{\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\","
+    " \"to_node\": \"Material Output\", \"to_socket\": \"Surface\"}]}";
+
+static render_material *test_material(int blender)
+{
+    sg_error e;
+    sg_graph *g = sg_graph_load_json(graph_json, strlen(graph_json), "test", &e);
+    if (!g)
+        fail_msg("%s", e.msg);
+    char err[512];
+    render_material *m = render_material_new(g, blender, err, sizeof err);
+    sg_graph_free(g);
+    if (!m)
+        fail_msg("%s", err);
+    return m;
+}
+
+static void test_threads_do_not_change_bits(void **state)
+{
+    (void)state;
+    render_scene *s = load_scene();
+    render_material *m = test_material(4);
+    char err[512];
+    for (int mode = 0; mode < 2; mode++) {
+        image img[3];
+        for (int t = 0; t < 3; t++) {
+            render_options o;
+            render_options_default(&o);
+            o.mode = mode ? RENDER_REFERENCE : RENDER_FAST;
+            o.width = o.height = 40; /* not a multiple of the tile size */
+            o.spp = 4;
+            o.threads = t + 1;
+            o.seed = 11;
+            if (render_image(s, m, &o, &img[t], NULL, err, sizeof err) < 0)
+                fail_msg("%s", err);
+        }
+        size_t bytes = sizeof(float) * 3 * 40 * 40;
+        assert_memory_equal(img[0].pixels, img[1].pixels, bytes);
+        assert_memory_equal(img[0].pixels, img[2].pixels, bytes);
+        for (int t = 0; t < 3; t++)
+            image_free(&img[t]);
+    }
+    render_material_free(m);
+    render_scene_free(s);
+}
+
+/* Fast and reference modes estimate the same image: compare 8x8-pixel block means,
+ * each against the two modes' combined noise measured from two seeds. */
+static void test_fast_matches_reference(void **state)
+{
+    (void)state;
+    render_scene *s = load_scene();
+    for (int blender = 3; blender <= 4; blender++) {
+        render_material *m = test_material(blender);
+        char err[512];
+        enum { W = 32, B = 8, NB = (W / B) * (W / B) };
+        image fast[2], ref[2];
+        for (int k = 0; k < 2; k++) {
+            render_options o;
+            render_options_default(&o);
+            o.blender = blender;
+            o.width = o.height = W;
+            o.seed = (uint64_t)k + 1;
+            o.spp = 16;
+            if (render_image(s, m, &o, &fast[k], NULL, err, sizeof err) < 0)
+                fail_msg("%s", err);
+            o.mode = RENDER_REFERENCE;
+            o.spp = 512;
+            if (render_image(s, m, &o, &ref[k], NULL, err, sizeof err) < 0)
+                fail_msg("%s", err);
+        }
+        /* Block means of each half; the noise of a block's difference between modes is
+         * estimated from the halves' differences, pooled over blocks as a relative
+         * variance (one pair per block alone is too few to estimate it). */
+        double mf[NB][2], mr[NB][2];
+        memset(mf, 0, sizeof mf);
+        memset(mr, 0, sizeof mr);
+        for (int b = 0; b < NB; b++) {
+            int bx = (b % (W / B)) * B, by = (b / (W / B)) * B;
+            for (int y = by; y < by + B; y++)
+                for (int x = bx; x < bx + B; x++)
+                    for (int c = 0; c < 3; c++)
+                        for (int k = 0; k < 2; k++) {
+                            mf[b][k] += fast[k].pixels[3 * (y * W + x) + c];
+                            mr[b][k] += ref[k].pixels[3 * (y * W + x) + c];
+                        }
+        }
+        double rel_var = 0;
+        for (int b = 0; b < NB; b++) {
+            double df = mf[b][0] - mf[b][1], dr = mr[b][0] - mr[b][1];
+            double scale = 0.5 * (mr[b][0] + mr[b][1]);
+            /* Var(mean of two halves) = Var(half) / 2 = E[(h0 - h1)^2] / 4, per mode. */
+            rel_var += (df * df + dr * dr) / 4.0 / (scale * scale) / NB;
+        }
+        int bad = 0;
+        double total_f = 0, total_r = 0, total_var = 0;
+        for (int b = 0; b < NB; b++) {
+            double f = 0.5 * (mf[b][0] + mf[b][1]), r = 0.5 * (mr[b][0] + mr[b][1]);
+            double sigma = r * sqrt(rel_var);
+            total_f += f;
+            total_r += r;
+            total_var += sigma * sigma;
+            if (fabs(f - r) > 4.5 * sigma + 1e-5 * r) {
+                print_message("blender %d block %d: fast %.4f ref %.4f sigma %.4f\n", blender,
+                              b, f, r, sigma);
+                bad++;
+            }
+        }
+        assert_int_equal(bad, 0);
+        /* Whole image: within 4 sigma, and noise small enough to mean something. */
+        double sig = sqrt(total_var);
+        assert_true(sig < 0.01 * total_r);
+        if (fabs(total_f - total_r) > 4.0 * sig)
+            fail_msg("blender %d image: fast %.4f ref %.4f sigma %.4f", blender, total_f,
+                     total_r, sig);
+        for (int k = 0; k < 2; k++) {
+            image_free(&fast[k]);
+            image_free(&ref[k]);
+        }
+        render_material_free(m);
+    }
+    render_scene_free(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_camera_hits_pixel_centres),
+        cmocka_unit_test(test_filter_distribution),
+        cmocka_unit_test(test_sampler),
+        cmocka_unit_test(test_light_irradiance),
+        cmocka_unit_test(test_scene_errors),
+        cmocka_unit_test(test_threads_do_not_change_bits),
+        cmocka_unit_test(test_fast_matches_reference),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
