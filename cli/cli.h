@@ -16,6 +16,25 @@ int cmd_eval_graph(int argc, char **argv);
 int cmd_describe(int argc, char **argv);
 int cmd_sample(int argc, char **argv);
 int cmd_render(int argc, char **argv);
+int cmd_extract(int argc, char **argv);
+int cmd_export(int argc, char **argv);
+
+/* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
+ * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in
+ * `rest` for the subcommand. The graph defaults to assets/supershader.json. */
+typedef struct cli_graph_args {
+    const char *graph_path;
+    const char *params_path; /* NULL: none */
+    long long seed;          /* -1: none */
+    int blender;             /* SG_BLENDER_3 or SG_BLENDER_4 */
+    const char *rest[32];
+    int n_rest;
+} cli_graph_args;
+
+/* Returns EXIT_OK or EXIT_USAGE (after printing why). */
+int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga);
+/* Loads the graph and binds --params / --seed if given; NULL after printing why. */
+struct sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga);
 
 /* Prints "imsynth <sub>: <message>" to stderr. */
 void cli_error(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

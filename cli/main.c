@@ -15,6 +15,8 @@ static const subcommand subcommands[] = {
     {"eval-graph", cmd_eval_graph, "evaluate a node socket over the scene's plane into an image"},
     {"render", cmd_render, "path-trace a material on the scene's plane as Cycles would (EXR, PNG)"},
     {"sample", cmd_sample, "the super-shader parameter set of frame N, as JSON"},
+    {"extract", cmd_extract, "the sub-shader of a super-shader for one parameter set"},
+    {"export", cmd_export, "a material (sub-shader by default) for blender/import_material.py"},
 #ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
 #endif

@@ -1,0 +1,91 @@
+/* Shared by the subcommands that take a graph and a parameter set. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/cli.h"
+#include "shadergraph/shadergraph.h"
+
+int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga)
+{
+    memset(ga, 0, sizeof *ga);
+    ga->graph_path = "assets/supershader.json";
+    ga->blender = SG_BLENDER_4;
+    ga->seed = -1;
+    bool have_graph = false;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *val = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--params") || !strcmp(a, "--seed") || !strcmp(a, "--blender")) {
+            if (!val) {
+                cli_error(sub, "%s needs a value", a);
+                return EXIT_USAGE;
+            }
+            i++;
+            if (!strcmp(a, "--params")) {
+                ga->params_path = val;
+            } else if (!strcmp(a, "--seed")) {
+                char *end;
+                long long v = strtoll(val, &end, 10);
+                if (*end || v < 0) {
+                    cli_error(sub, "--seed: expected a non-negative integer, got \"%s\"", val);
+                    return EXIT_USAGE;
+                }
+                ga->seed = v;
+            } else {
+                if (strcmp(val, "3") && strcmp(val, "4")) {
+                    cli_error(sub, "--blender: expected 3 or 4, got \"%s\"", val);
+                    return EXIT_USAGE;
+                }
+                ga->blender = val[0] == '3' ? SG_BLENDER_3 : SG_BLENDER_4;
+            }
+        } else if (a[0] != '-' && !have_graph && ga->n_rest == 0) {
+            ga->graph_path = a;
+            have_graph = true;
+        } else {
+            if (ga->n_rest < (int)(sizeof ga->rest / sizeof ga->rest[0]))
+                ga->rest[ga->n_rest++] = argv[i];
+            else {
+                cli_error(sub, "too many arguments");
+                return EXIT_USAGE;
+            }
+        }
+    }
+    if (ga->params_path && ga->seed >= 0) {
+        cli_error(sub, "give --params or --seed, not both");
+        return EXIT_USAGE;
+    }
+    return EXIT_OK;
+}
+
+sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga)
+{
+    sg_error err;
+    sg_graph *g = sg_graph_load_file(ga->graph_path, &err);
+    if (!g) {
+        cli_error(sub, "%s", err.msg);
+        return NULL;
+    }
+    if (!ga->params_path && ga->seed < 0)
+        return g;
+    sg_params p;
+    if (sg_params_from_graph(g, &p, &err) < 0) {
+        cli_error(sub, "%s", err.msg);
+        sg_graph_free(g);
+        return NULL;
+    }
+    int rc = 0;
+    if (ga->params_path)
+        rc = sg_params_read_file(ga->params_path, &p, &err);
+    else
+        sg_params_sample(&p, (unsigned long long)ga->seed);
+    if (rc == 0)
+        rc = sg_graph_bind_params(g, &p, &err);
+    sg_params_free(&p);
+    if (rc < 0) {
+        cli_error(sub, "%s", err.msg);
+        sg_graph_free(g);
+        return NULL;
+    }
+    return g;
+}
