@@ -1,12 +1,632 @@
 /*
- * PLACEHOLDER: a plain Lambert BSDF (base colour / pi, cosine-weighted sampling)
- * standing in for the Principled BSDF so that the renderer can be built against
- * the interface of bsdf_principled.h. It ignores metallic, roughness, IOR and
- * the Blender version. The real implementation replaces this file.
+ * The Principled BSDF of Cycles (Blender 4.3 and 3.4) for opaque, non-transmissive,
+ * non-coated, non-sheen, non-subsurface materials: the part of the node that the
+ * super-shader drives. Written from Cycles' kernel sources (svm/closure.h's
+ * PRINCIPLED case, closure/bsdf_microfacet.h, bsdf_diffuse.h, bsdf_principled_diffuse.h,
+ * bsdf_util.h, bsdf.h), not copied from them.
+ *
+ * How Cycles evaluates a Principled BSDF: the node becomes a set of closures (lobes),
+ * each with a weight; the surface's BSDF is the weighted sum of the lobes, and BSDF
+ * sampling picks one lobe with probability proportional to its sample weight, samples
+ * it, and reports the mixture pdf sum_l p_l pdf_l. We do the same with three lobes:
+ *
+ *   Blender 4.x (the 4.0 rewrite, MULTI_GGX, the default distribution of a new node):
+ *     metal     metallic * GGX with F82-tint Fresnel (F0 = base colour, F82 tint =
+ *               Specular Tint), multiple-scattering energy compensation;
+ *     specular  (1 - metallic) * GGX with the dielectric Fresnel of IOR, F0 scaled by
+ *               2 * Specular IOR Level and tinted by Specular Tint, compensated;
+ *     diffuse   Lambert, weighted by (1 - metallic) * base colour * (1 - the specular
+ *               layer's directional albedo), Cycles' closure_layering_weight.
+ *     Energy compensation (Cycles' microfacet_ggx_preserve_energy, after Kulla and
+ *     Conty): a lobe with single-scattering albedo E(mu) is scaled by 1 + Fms (1-E)/E,
+ *     Fms = Fss Eavg / (1 - Fss (1 - Eavg)), Fss the lobe's hemispherical mean Fresnel.
+ *     Tables E, Eavg and the layering factor come from render/microfacet_tables.c.
+ *   Blender 3.4 (GGX: what the importer's new node gets in 3.4):
+ *     diffuse   (1 - metallic) * base colour * Disney diffuse with retro-reflection;
+ *     specular  GGX (separable Smith G) with Fresnel interpolating from
+ *               cspec0 = mix(0.08 Specular, base colour, metallic) to white along the
+ *               real Fresnel curve of IOR 2/(1 - sqrt(0.08 Specular)) - 1.
+ *     Mapping of inputs: 3.x Specular = Specular IOR Level (Blender's 4.0 versioning
+ *     keeps the value); 3.x Specular Tint (a float) is taken as 0, its default, since a
+ *     4.x tint colour has no 3.x equivalent; IOR only affects 3.x transmission (none).
+ *
+ * Normals. 4.x: the specular and metal lobes use the shading normal raised so that the
+ * view's mirror reflection stays above the surface (maybe_ensure_valid_specular_reflection,
+ * applied since "Bump Map Correction" is on by default); the diffuse lobe uses the normal
+ * as given, with the bump shadowing term (smoothed) when it differs from Ng. 3.x: every
+ * closure's normal goes through ensure_valid_reflection (svm_node_closure_bsdf does this;
+ * it leaves a normal that the Bump node already corrected unchanged) and the diffuse gets
+ * 3.x's bump shadowing term. The geometry is taken as flat: Cycles' smooth normal sd->N is
+ * Ng. Ng must face the viewer (flip it for back faces, as Cycles does); otherwise the BSDF
+ * is zero.
+ *
+ * Self-consistency: a lobe's pdf is the density of the directions its sampler returns,
+ * and every lobe is zero below Ng (samples there are rejected), so eval(), sample() and
+ * the pdf agree exactly. Cycles is slightly inconsistent at the edges (a microfacet sample
+ * below the bumped normal is kept by its sampler but zero in its eval); that measure is
+ * tiny and only exists with bump. Near-mirror lobes (alpha^2 below Cycles' threshold) are
+ * deltas: eval() gives 0 for them and sample() returns f_cos and pdf multiplied by
+ * SINGULAR_SCALE = 1e6, as Cycles does, so that f_cos / pdf is right and MIS gives the
+ * delta full weight.
  */
 #include "render/bsdf_principled.h"
 
 #include <math.h>
+#include <stdbool.h>
+
+#include "render/microfacet_tables.h"
+
+#define PI_F 3.14159265358979323846f
+#define SINGULAR_SCALE 1e6f
+/* Cycles drops closures whose weight is below this. */
+#define CLOSURE_WEIGHT_CUTOFF 1e-5f
+
+typedef struct vec3 {
+    float x, y, z;
+} vec3;
+
+static vec3 v3(float x, float y, float z)
+{
+    vec3 r = {x, y, z};
+    return r;
+}
+static vec3 v3_load(const float a[3]) { return v3(a[0], a[1], a[2]); }
+static vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static vec3 v3_sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static vec3 v3_scale(vec3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static float v3_dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static vec3 v3_cross(vec3 a, vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static bool v3_equal(vec3 a, vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+static vec3 v3_normalize_or(vec3 a, vec3 fallback)
+{
+    float l = sqrtf(v3_dot(a, a));
+    return l > 0.0f ? v3_scale(a, 1.0f / l) : fallback;
+}
+
+static float saturate(float x) { return fminf(fmaxf(x, 0.0f), 1.0f); }
+static float sqr(float x) { return x * x; }
+static float safe_sqrt(float x) { return sqrtf(fmaxf(x, 0.0f)); }
+static float mixf(float a, float b, float t) { return a + (b - a) * t; }
+static float average3(const float c[3]) { return (c[0] + c[1] + c[2]) * (1.0f / 3.0f); }
+
+/* Orthonormal tangents of a unit n (Duff et al. 2017). */
+static void tangent_frame(vec3 n, vec3 *t, vec3 *b)
+{
+    float sign = copysignf(1.0f, n.z);
+    float a = -1.0f / (sign + n.z);
+    float c = n.x * n.y * a;
+    *t = v3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    *b = v3(c, sign + n.y * n.y * a, -n.y);
+}
+
+/* ---- Fresnel ---------------------------------------------------------------------- */
+
+/* Unpolarised dielectric reflectance at cos c for relative IOR eta (1 on total internal
+ * reflection). */
+static float fresnel_dielectric(float c, float eta)
+{
+    c = fabsf(c);
+    float g = eta * eta - 1.0f + c * c;
+    if (g <= 0.0f)
+        return 1.0f;
+    g = sqrtf(g);
+    float A = (g - c) / (g + c);
+    float B = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
+    return 0.5f * A * A * (1.0f + B * B);
+}
+
+static float F0_from_ior(float ior) { return sqr((ior - 1.0f) / (ior + 1.0f)); }
+
+static float ior_from_F0(float f0)
+{
+    float s = sqrtf(fminf(fmaxf(f0, 0.0f), 0.99f));
+    return (1.0f + s) / (1.0f - s);
+}
+
+/* Where the real Fresnel curve of eta is between its normal-incidence value and 1: the
+ * interpolation factor from F0 to F90 of Cycles' Principled specular (both versions). */
+static float fresnel_interpolation(float cos_hi, float eta)
+{
+    float F0 = F0_from_ior(eta);
+    float F = fresnel_dielectric(cos_hi, eta);
+    return F0 < 1.0f ? (F - F0) / (1.0f - F0) : 1.0f;
+}
+
+/* ---- Normals ---------------------------------------------------------------------- */
+
+/* Blender 4.x: if the view's mirror reflection about N points below (or too close to) the
+ * surface, rotate N towards Ng, in their common plane, until the reflection sits at the
+ * threshold t above the surface. Squaring the condition 2 (N'.I) N'.z - I.z = t gives a
+ * quadratic in N'.z^2 with one root of the right sign, chosen by the sign of I.x. */
+static vec3 valid_specular_normal_4x(vec3 Ng, vec3 I, vec3 N)
+{
+    if (v3_equal(N, Ng))
+        return N;
+    vec3 R = v3_sub(v3_scale(N, 2.0f * v3_dot(N, I)), I);
+    float Iz = v3_dot(I, Ng);
+    float t = fminf(0.9f * Iz, 0.01f);
+    if (v3_dot(Ng, R) >= t)
+        return N;
+    vec3 X = v3_normalize_or(v3_sub(N, v3_scale(Ng, v3_dot(N, Ng))), N);
+    float Ix = v3_dot(I, X);
+    float a = Ix * Ix + Iz * Iz;
+    float b = 2.0f * (a + Iz * t);
+    float c = sqr(t + Iz);
+    float root = safe_sqrt(b * b - 4.0f * a * c);
+    float Nz2 = Ix < 0.0f ? 0.25f * (b + root) / a : 0.25f * (b - root) / a;
+    return v3_add(v3_scale(X, safe_sqrt(1.0f - Nz2)), v3_scale(Ng, safe_sqrt(Nz2)));
+}
+
+/* Blender 3.x's older solution of the same problem: both roots of the biquadratic are
+ * candidates; prefer the valid one whose reflection is shallower; Ng if none is valid. */
+static vec3 valid_reflection_normal_3x(vec3 Ng, vec3 I, vec3 N)
+{
+    vec3 R = v3_sub(v3_scale(N, 2.0f * v3_dot(N, I)), I);
+    float t = fminf(0.9f * v3_dot(Ng, I), 0.01f);
+    if (v3_dot(Ng, R) >= t)
+        return N;
+    vec3 X = v3_normalize_or(v3_sub(N, v3_scale(Ng, v3_dot(N, Ng))), N);
+    float Ix = v3_dot(I, X), Iz = v3_dot(I, Ng);
+    float a = Ix * Ix + Iz * Iz;
+    float b = safe_sqrt(Ix * Ix * (a - t * t));
+    float c = Iz * t + a;
+    float z1 = 0.5f / a * (b + c), z2 = 0.5f / a * (c - b);
+    bool ok1 = z1 > 1e-5f && z1 <= 1.0f + 1e-5f;
+    bool ok2 = z2 > 1e-5f && z2 <= 1.0f + 1e-5f;
+    float nx, nz;
+    if (ok1 && ok2) {
+        float x1 = safe_sqrt(1.0f - z1), s1 = safe_sqrt(z1);
+        float x2 = safe_sqrt(1.0f - z2), s2 = safe_sqrt(z2);
+        float R1 = 2.0f * (x1 * Ix + s1 * Iz) * s1 - Iz;
+        float R2 = 2.0f * (x2 * Ix + s2 * Iz) * s2 - Iz;
+        bool v1 = R1 >= 1e-5f, v2 = R2 >= 1e-5f;
+        bool pick1 = (v1 && v2) ? (R1 < R2) : (R1 > R2);
+        nx = pick1 ? x1 : x2;
+        nz = pick1 ? s1 : s2;
+    } else if (ok1 || ok2) {
+        float z = ok1 ? z1 : z2;
+        nx = safe_sqrt(1.0f - z);
+        nz = safe_sqrt(z);
+    } else {
+        return Ng;
+    }
+    return v3_add(v3_scale(X, nx), v3_scale(Ng, nz));
+}
+
+/* Cycles' shadow-terminator term for diffuse closures whose normal N differs from the
+ * smooth normal (Chiang, Li and Burley, "Taming the Shadow Terminator"); 4.x smooths it
+ * only with Bump Map Correction on (the default), 3.x always. L is the light direction. */
+static float bump_shadowing(vec3 Ng, vec3 N, vec3 L)
+{
+    float cos_nl = v3_dot(N, L);
+    if (cos_nl < 0.0f)
+        Ng = v3_scale(Ng, -1.0f);
+    float den = cos_nl * v3_dot(Ng, N);
+    float g = den != 0.0f ? v3_dot(Ng, L) / den : 0.0f;
+    if (g >= 1.0f)
+        return 1.0f;
+    if (g < 0.0f)
+        return 0.0f;
+    float g2 = g * g;
+    return -g2 * g + g2 + g;
+}
+
+/* ---- GGX ---------------------------------------------------------------------------- */
+
+/* Smith Lambda of GGX for a direction at cos c to the normal. */
+static float ggx_lambda(float alpha2, float c)
+{
+    float c2 = c * c;
+    return 0.5f * (sqrtf(1.0f + alpha2 * fmaxf(1.0f / c2 - 1.0f, 0.0f)) - 1.0f);
+}
+
+static float ggx_D(float alpha2, float cos_nh)
+{
+    float c2 = fminf(cos_nh * cos_nh, 1.0f);
+    return alpha2 / (PI_F * sqr(1.0f - c2 + alpha2 * c2));
+}
+
+/* Heitz 2018's sampling of the visible normals of isotropic GGX, in the frame where the
+ * normal is +z and v (unit, v.z > 0) is the view. */
+static vec3 ggx_sample_visible_normal(vec3 v, float alpha, float u1, float u2)
+{
+    vec3 vh = v3_normalize_or(v3(alpha * v.x, alpha * v.y, v.z), v3(0, 0, 1));
+    float lensq = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = lensq > 1e-7f ? v3_scale(v3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq))
+                            : v3(1.0f, 0.0f, 0.0f);
+    vec3 t2 = v3_cross(vh, t1);
+    float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
+    float px = r * cosf(phi), py = r * sinf(phi);
+    float s = 0.5f * (1.0f + vh.z);
+    py = (1.0f - s) * safe_sqrt(1.0f - px * px) + s * py;
+    vec3 h = v3_add(v3_add(v3_scale(t1, px), v3_scale(t2, py)),
+                    v3_scale(vh, safe_sqrt(1.0f - px * px - py * py)));
+    return v3_normalize_or(v3(alpha * h.x, alpha * h.y, fmaxf(0.0f, h.z)), v3(0, 0, 1));
+}
+
+/* ---- Closures ----------------------------------------------------------------------- */
+
+enum { LOBE_DIFFUSE, LOBE_SPECULAR, LOBE_METAL, N_LOBES };
+enum { FRESNEL_DIELECTRIC_4X, FRESNEL_F82_TINT, FRESNEL_CSPEC0_3X };
+
+typedef struct lobe {
+    bool active;
+    vec3 N;
+    /* Closure weight per channel; for 4.x microfacets it includes energy compensation. */
+    float weight[3];
+    float prob;         /* selection probability (sum 1 over active lobes) */
+    /* Microfacet lobes. */
+    float alpha;        /* roughness^2 */
+    bool singular;
+    int fresnel;
+    float f0[3];        /* F0 (4.x specular: F0 * tint; 3.x: cspec0) */
+    float b[3];         /* F82-tint factor */
+    float eta;          /* IOR of the real Fresnel curve (dielectric/cspec0 modes) */
+} lobe;
+
+typedef struct closures {
+    int blender;
+    vec3 V, Ng;
+    float diffuse_roughness;  /* 3.x retro-reflection */
+    lobe lobe[N_LOBES];
+} closures;
+
+static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
+{
+    if (l->fresnel == FRESNEL_F82_TINT) {
+        float m = saturate(1.0f - cos_hi);
+        float m5 = sqr(sqr(m)) * m;
+        for (int c = 0; c < 3; c++)
+            F[c] = saturate(mixf(l->f0[c], 1.0f, m5) - l->b[c] * cos_hi * m5 * m);
+        return;
+    }
+    float s = fresnel_interpolation(cos_hi, l->eta);
+    if (l->fresnel == FRESNEL_DIELECTRIC_4X)
+        s = saturate(s);
+    for (int c = 0; c < 3; c++)
+        F[c] = mixf(l->f0[c], 1.0f, s);
+}
+
+/* f * |cos| (without weight) and pdf of a microfacet lobe; 0 if invalid or singular. */
+static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3], float *pdf)
+{
+    f[0] = f[1] = f[2] = 0.0f;
+    *pdf = 0.0f;
+    float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
+    if (l->singular || cos_nv <= 0.0f || cos_nl <= 0.0f || v3_dot(cl->Ng, L) <= 0.0f)
+        return;
+    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
+    float alpha2 = l->alpha * l->alpha;
+    float D = ggx_D(alpha2, v3_dot(l->N, H));
+    float common = D * 0.25f / cos_nv;
+    float G, G1v;
+    if (cl->blender == 3) {
+        /* 3.x: separable Smith, G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2)) = 1 / (1 + Lambda). */
+        G1v = 1.0f / (1.0f + ggx_lambda(alpha2, cos_nv));
+        G = G1v / (1.0f + ggx_lambda(alpha2, cos_nl));
+    } else {
+        /* 4.x: height-correlated Smith. */
+        float lv = ggx_lambda(alpha2, cos_nv), ll = ggx_lambda(alpha2, cos_nl);
+        G1v = 1.0f / (1.0f + lv);
+        G = 1.0f / (1.0f + lv + ll);
+    }
+    float F[3];
+    /* 3.x evaluates its Fresnel at dot(L, H), 4.x at dot(V, H): equal for reflection. */
+    lobe_fresnel(l, v3_dot(H, cl->V), F);
+    for (int c = 0; c < 3; c++)
+        f[c] = F[c] * common * G;
+    *pdf = common * G1v;
+}
+
+/* Samples a microfacet lobe's direction; false if none (reflection below the surface). */
+static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, vec3 *L)
+{
+    float cos_nv = v3_dot(l->N, cl->V);
+    if (cos_nv <= 0.0f)
+        return false;
+    vec3 H;
+    if (l->singular) {
+        H = l->N;
+    } else {
+        vec3 t, b;
+        tangent_frame(l->N, &t, &b);
+        vec3 v = v3(v3_dot(t, cl->V), v3_dot(b, cl->V), cos_nv);
+        vec3 h = ggx_sample_visible_normal(v, l->alpha, u1, u2);
+        H = v3_add(v3_add(v3_scale(t, h.x), v3_scale(b, h.y)), v3_scale(l->N, h.z));
+    }
+    float cos_hv = v3_dot(H, cl->V);
+    *L = v3_sub(v3_scale(H, 2.0f * cos_hv), cl->V);
+    return v3_dot(cl->Ng, *L) > 0.0f && v3_dot(l->N, *L) > 0.0f;
+}
+
+/* f * cos (without weight) and pdf of the diffuse lobe. */
+static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
+{
+    *f = *pdf = 0.0f;
+    float cos_nl = v3_dot(l->N, L);
+    if (cos_nl <= 0.0f || v3_dot(cl->Ng, L) <= 0.0f)
+        return;
+    *pdf = cos_nl / PI_F;
+    float shape = 1.0f;
+    if (cl->blender == 3) {
+        /* Disney diffuse: Lambert with Schlick-shaped entry and exit, plus retro-reflection
+         * growing with roughness. */
+        float cos_nv = v3_dot(l->N, cl->V);
+        float m_v = saturate(1.0f - cos_nv), m_l = saturate(1.0f - cos_nl);
+        float FV = sqr(sqr(m_v)) * m_v, FL = sqr(sqr(m_l)) * m_l;
+        float RR = cl->diffuse_roughness * (v3_dot(L, cl->V) + 1.0f);
+        shape = (1.0f - 0.5f * FV) * (1.0f - 0.5f * FL) + RR * (FL + FV + FL * FV * (RR - 1.0f));
+    }
+    float bump = v3_equal(l->N, cl->Ng) ? 1.0f : bump_shadowing(cl->Ng, l->N, L);
+    *f = *pdf * shape * bump;
+}
+
+/* Sum over lobes of weight * f_cos, and the mixture pdf. */
+static void closures_eval(const closures *cl, vec3 L, float f_cos[3], float *pdf)
+{
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+    *pdf = 0.0f;
+    for (int i = 0; i < N_LOBES; i++) {
+        const lobe *l = &cl->lobe[i];
+        if (!l->active)
+            continue;
+        float f[3], p;
+        if (i == LOBE_DIFFUSE) {
+            diffuse_eval(cl, l, L, &f[0], &p);
+            f[1] = f[2] = f[0];
+        } else {
+            microfacet_eval(cl, l, L, f, &p);
+        }
+        for (int c = 0; c < 3; c++)
+            f_cos[c] += l->weight[c] * f[c];
+        *pdf += l->prob * p;
+    }
+}
+
+/* Kulla-Conty compensation factor of Cycles' microfacet_ggx_preserve_energy: the
+ * single-scattering lobe times 1 + Fms (1 - E) / E. */
+static void energy_compensation(float roughness, float mu, const float Fss[3], float out[3])
+{
+    float E = microfacet_table_2d(microfacet_ggx_E, roughness, mu, 32, 32);
+    float Eavg = microfacet_table_1d(microfacet_ggx_Eavg, roughness, 32);
+    float missing = (1.0f - E) / E;
+    for (int c = 0; c < 3; c++) {
+        float Fms = Fss[c] * Eavg / (1.0f - Fss[c] * (1.0f - Eavg));
+        out[c] = 1.0f + Fms * missing;
+    }
+}
+
+/* Single-scattering directional albedo of a 4.x microfacet lobe from the tables (N = Ng);
+ * without its weight. */
+static void microfacet_albedo_4x(const lobe *l, float roughness, float mu, float alb[3])
+{
+    float E = microfacet_table_2d(microfacet_ggx_E, roughness, mu, 32, 32);
+    if (l->fresnel == FRESNEL_F82_TINT) {
+        float S5 = microfacet_table_2d(microfacet_alb4_S5, roughness, mu, 32, 32);
+        float S6 = microfacet_table_2d(microfacet_alb4_S6, roughness, mu, 32, 32);
+        for (int c = 0; c < 3; c++)
+            alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S5 - l->b[c] * S6;
+        return;
+    }
+    float z = sqrtf(fabsf((l->eta - 1.0f) / (l->eta + 1.0f)));
+    float S = microfacet_table_3d(microfacet_alb4_S, roughness, mu, z, 32, 32, 16);
+    for (int c = 0; c < 3; c++)
+        alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S;
+}
+
+static void microfacet_albedo_3x(const lobe *l, float roughness, float mu, float alb[3])
+{
+    float E = microfacet_table_2d(microfacet_alb3_E, roughness, mu, 32, 32);
+    float z = sqrtf(fabsf((l->eta - 1.0f) / (l->eta + 1.0f)));
+    float S = microfacet_table_3d(microfacet_alb3_S, roughness, mu, z, 32, 32, 16);
+    for (int c = 0; c < 3; c++)
+        alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S;
+}
+
+static float diffuse_albedo_3x(float roughness, float mu)
+{
+    const float *D = microfacet_alb3_D;
+    return microfacet_table_1d(D, mu, 64) + roughness * microfacet_table_1d(D + 64, mu, 64) +
+           roughness * roughness * microfacet_table_1d(D + 128, mu, 64);
+}
+
+/* Sets the selection probabilities from per-lobe estimates of their albedo. */
+static void set_probabilities(closures *cl, const float estimate[N_LOBES])
+{
+    /* A lobe with a zero estimate has (next to) no albedo; it stays in eval() but is
+     * never picked. If every estimate is zero, pick uniformly. */
+    float sum = 0.0f;
+    int n_active = 0;
+    for (int i = 0; i < N_LOBES; i++) {
+        if (cl->lobe[i].active) {
+            sum += fmaxf(estimate[i], 0.0f);
+            n_active++;
+        }
+    }
+    for (int i = 0; i < N_LOBES; i++) {
+        lobe *l = &cl->lobe[i];
+        if (!l->active)
+            l->prob = 0.0f;
+        else
+            l->prob = sum > 0.0f ? fmaxf(estimate[i], 0.0f) / sum : 1.0f / (float)n_active;
+    }
+}
+
+static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
+{
+    float metallic = saturate(in->metallic);
+    float roughness = saturate(in->roughness);
+    float level = fmaxf(in->specular_ior_level, 0.0f);
+    float ior = fmaxf(in->ior, 1e-5f);
+    float alpha = saturate(in->alpha);
+    float tint[3], base[3];
+    for (int c = 0; c < 3; c++) {
+        tint[c] = fmaxf(in->specular_tint[c], 0.0f);
+        base[c] = fmaxf(in->base_color[c], 0.0f);
+    }
+    vec3 N_spec = valid_specular_normal_4x(cl->Ng, cl->V, N);
+    float mu = v3_dot(cl->V, N_spec);
+    float estimate[N_LOBES] = {0};
+    /* The transparent share (1 - alpha) lets light pass straight through in Cycles; it is
+     * a delta transmission the renderer would have to trace, and is left out here. */
+    float weight = alpha;
+
+    lobe *m = &cl->lobe[LOBE_METAL];
+    if (metallic * weight > CLOSURE_WEIGHT_CUTOFF) {
+        m->active = true;
+        m->N = N_spec;
+        m->alpha = roughness * roughness;
+        m->singular = m->alpha * m->alpha <= 2e-10f;
+        m->fresnel = FRESNEL_F82_TINT;
+        /* F82-tint (Kutz et al.): Schlick minus b cos (1-cos)^6, with b chosen so that the
+         * value at cos = 1/7 is Schlick's times the tint. */
+        const float f = 6.0f / 7.0f, f5 = sqr(sqr(f)) * f;
+        float Fss[3];
+        for (int c = 0; c < 3; c++) {
+            m->f0[c] = fminf(base[c], 1.0f);
+            float f82 = fminf(tint[c], 1.0f);
+            m->b[c] = mixf(m->f0[c], 1.0f, f5) * (7.0f / (f5 * f)) * (1.0f - f82);
+            Fss[c] = mixf(m->f0[c], 1.0f, 1.0f / 21.0f) - m->b[c] * (1.0f / 126.0f);
+        }
+        float comp[3], alb[3];
+        energy_compensation(roughness, mu, Fss, comp);
+        microfacet_albedo_4x(m, roughness, mu, alb);
+        for (int c = 0; c < 3; c++) {
+            m->weight[c] = metallic * weight * comp[c];
+            alb[c] *= m->weight[c];
+        }
+        estimate[LOBE_METAL] = average3(alb);
+    }
+    weight *= 1.0f - metallic;
+
+    /* Specular IOR Level scales F0 (0.5 keeps the IOR's own F0). */
+    float eta = ior, f0 = F0_from_ior(ior);
+    if (level != 0.5f) {
+        f0 *= 2.0f * level;
+        eta = ior_from_F0(f0);
+        if (ior < 1.0f)
+            eta = 1.0f / eta;
+    }
+    lobe *s = &cl->lobe[LOBE_SPECULAR];
+    if (eta != 1.0f && weight > CLOSURE_WEIGHT_CUTOFF) {
+        s->active = true;
+        s->N = N_spec;
+        s->alpha = roughness * roughness;
+        s->singular = s->alpha * s->alpha <= 2e-10f;
+        s->fresnel = FRESNEL_DIELECTRIC_4X;
+        s->eta = eta;
+        /* Hemispherical mean of the real Fresnel curve (Kulla and Conty's fit), mapped to
+         * the interpolation factor between F0 and 1. */
+        float real_Fss = eta < 1.0f
+                             ? 0.997118f + eta * (0.1014f - eta * (0.965241f + eta * 0.130607f))
+                             : (eta - 1.0f) / (4.08567f + 1.00071f * eta);
+        float real_F0 = F0_from_ior(eta);
+        float s_avg = saturate((real_Fss - real_F0) / (1.0f - real_F0));
+        float Fss[3];
+        for (int c = 0; c < 3; c++) {
+            s->f0[c] = saturate(f0 * tint[c]);
+            Fss[c] = mixf(s->f0[c], 1.0f, s_avg);
+        }
+        float comp[3];
+        energy_compensation(roughness, mu, Fss, comp);
+        /* Cycles attenuates the layers below by the specular layer's albedo estimate:
+         * E * comp * mix(F0, 1, s) with s its table of the VNDF-mean interpolation factor
+         * (bsdf_albedo; the E factor is the darkening that its energy preservation moves
+         * into the closure weight). */
+        float E = microfacet_table_2d(microfacet_ggx_E, roughness, mu, 32, 32);
+        float z = sqrtf(fabsf((eta - 1.0f) / (eta + 1.0f)));
+        float s_tab = microfacet_table_3d(microfacet_ggx_gen_schlick_ior_s, roughness, mu, z,
+                                          16, 16, 16);
+        float layer_max = 0.0f, alb[3];
+        microfacet_albedo_4x(s, roughness, mu, alb);
+        for (int c = 0; c < 3; c++) {
+            s->weight[c] = weight * comp[c];
+            layer_max = fmaxf(layer_max, E * comp[c] * mixf(s->f0[c], 1.0f, s_tab));
+            alb[c] *= s->weight[c];
+        }
+        estimate[LOBE_SPECULAR] = average3(alb);
+        weight *= saturate(1.0f - layer_max);
+    }
+
+    lobe *d = &cl->lobe[LOBE_DIFFUSE];
+    for (int c = 0; c < 3; c++)
+        d->weight[c] = base[c] * weight;
+    if (average3(d->weight) > CLOSURE_WEIGHT_CUTOFF) {
+        d->active = true;
+        d->N = N;
+        estimate[LOBE_DIFFUSE] = average3(d->weight);
+    }
+    set_probabilities(cl, estimate);
+}
+
+static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
+{
+    float metallic = in->metallic;
+    float roughness = in->roughness;
+    float specular = in->specular_ior_level;
+    const float specular_tint = 0.0f;
+    float estimate[N_LOBES] = {0};
+    N = valid_reflection_normal_3x(cl->Ng, cl->V, N);
+    float weight = saturate(in->alpha);
+
+    float diffuse_weight = 1.0f - saturate(metallic);
+    lobe *d = &cl->lobe[LOBE_DIFFUSE];
+    if (fabsf(average3(in->base_color)) > CLOSURE_WEIGHT_CUTOFF &&
+        diffuse_weight > CLOSURE_WEIGHT_CUTOFF) {
+        for (int c = 0; c < 3; c++)
+            d->weight[c] = weight * in->base_color[c] * diffuse_weight;
+        d->active = true;
+        d->N = N;
+        cl->diffuse_roughness = roughness;
+        estimate[LOBE_DIFFUSE] = fabsf(average3(d->weight));
+    }
+
+    lobe *s = &cl->lobe[LOBE_SPECULAR];
+    if (specular > CLOSURE_WEIGHT_CUTOFF || metallic > CLOSURE_WEIGHT_CUTOFF) {
+        s->active = true;
+        s->N = N;
+        s->alpha = saturate(roughness * roughness);
+        s->singular = s->alpha * s->alpha <= 1e-7f;
+        s->fresnel = FRESNEL_CSPEC0_3X;
+        s->eta = 2.0f / (1.0f - safe_sqrt(0.08f * specular)) - 1.0f;
+        const float *bc = in->base_color;
+        float lum = 0.3f * bc[0] + 0.6f * bc[1] + 0.1f * bc[2];
+        for (int c = 0; c < 3; c++) {
+            float tinted = lum > 0.0f ? bc[c] / lum : 1.0f;
+            float tmp = 1.0f - specular_tint + tinted * specular_tint;
+            s->f0[c] = saturate(specular * 0.08f * tmp * (1.0f - metallic) + bc[c] * metallic);
+            s->weight[c] = weight;
+        }
+        /* Cycles' sample weight: the Fresnel colour at the view angle. */
+        float F[3];
+        lobe_fresnel(s, v3_dot(cl->V, N), F);
+        estimate[LOBE_SPECULAR] = weight * average3(F);
+    }
+    set_probabilities(cl, estimate);
+}
+
+/* Builds the closures for view V; false if the BSDF is zero for this view. */
+static bool closures_setup(closures *cl, const principled_inputs *in, int blender,
+                           const float wo[3], const float Ng[3])
+{
+    *cl = (closures){0};
+    cl->blender = blender == 3 ? 3 : 4;
+    cl->V = v3_load(wo);
+    cl->Ng = v3_load(Ng);
+    if (v3_dot(cl->V, cl->Ng) <= 0.0f)
+        return false;
+    vec3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
+    if (cl->blender == 3)
+        setup_3x(cl, in, N);
+    else
+        setup_4x(cl, in, N);
+    return true;
+}
+
+/* ---- Interface ---------------------------------------------------------------------- */
 
 void principled_inputs_default(principled_inputs *in)
 {
@@ -22,51 +642,138 @@ void principled_inputs_default(principled_inputs *in)
     in->N[2] = 1.0f;
 }
 
-static float dot3(const float a[3], const float b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 void principled_eval(const principled_inputs *in, int blender, const float wo[3],
                      const float wi[3], const float Ng[3], float f_cos[3], float *pdf)
 {
-    (void)blender;
-    float cos_i = dot3(wi, in->N);
-    if (cos_i <= 0.0f || dot3(wo, Ng) <= 0.0f || dot3(wi, Ng) <= 0.0f) {
-        f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
-        *pdf = 0.0f;
+    closures cl;
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+    *pdf = 0.0f;
+    if (!closures_setup(&cl, in, blender, wo, Ng))
         return;
-    }
-    for (int c = 0; c < 3; c++)
-        f_cos[c] = in->base_color[c] * cos_i / (float)M_PI;
-    *pdf = cos_i / (float)M_PI;
+    closures_eval(&cl, v3_load(wi), f_cos, pdf);
 }
 
 int principled_sample(const principled_inputs *in, int blender, const float wo[3],
                       const float Ng[3], const float u[3], float wi[3], float f_cos[3],
                       float *pdf)
 {
-    const float *n = in->N;
-    /* Duff et al.'s branchless orthonormal basis around n. */
-    float sign = copysignf(1.0f, n[2]);
-    float a = -1.0f / (sign + n[2]);
-    float b = n[0] * n[1] * a;
-    float t[3] = {1.0f + sign * n[0] * n[0] * a, sign * b, -sign * n[0]};
-    float s[3] = {b, sign + n[1] * n[1] * a, -n[1]};
-    float r = sqrtf(u[0]), phi = 2.0f * (float)M_PI * u[1];
-    float x = r * cosf(phi), y = r * sinf(phi), z = sqrtf(fmaxf(0.0f, 1.0f - u[0]));
-    for (int c = 0; c < 3; c++)
-        wi[c] = x * t[c] + y * s[c] + z * n[c];
-    principled_eval(in, blender, wo, wi, Ng, f_cos, pdf);
+    closures cl;
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+    *pdf = 0.0f;
+    wi[0] = wi[1] = wi[2] = 0.0f;
+    if (!closures_setup(&cl, in, blender, wo, Ng))
+        return 0;
+    /* Pick a lobe by u[2]. */
+    int pick = -1;
+    float acc = 0.0f;
+    for (int i = 0; i < N_LOBES; i++) {
+        if (!cl.lobe[i].active)
+            continue;
+        pick = i;
+        acc += cl.lobe[i].prob;
+        if (u[2] < acc)
+            break;
+    }
+    if (pick < 0)
+        return 0;
+    const lobe *l = &cl.lobe[pick];
+    vec3 L;
+    if (pick == LOBE_DIFFUSE) {
+        vec3 t, b;
+        tangent_frame(l->N, &t, &b);
+        float r = sqrtf(u[0]), phi = 2.0f * PI_F * u[1];
+        float z = safe_sqrt(1.0f - u[0]);
+        L = v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))),
+                   v3_scale(l->N, z));
+        if (v3_dot(cl.Ng, L) <= 0.0f || z <= 0.0f)
+            return 0;
+    } else if (!microfacet_sample(&cl, l, u[0], u[1], &L)) {
+        return 0;
+    }
+    wi[0] = L.x;
+    wi[1] = L.y;
+    wi[2] = L.z;
+    closures_eval(&cl, L, f_cos, pdf);
+    if (l->singular) {
+        /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
+        float F[3];
+        lobe_fresnel(l, v3_dot(l->N, cl.V), F);
+        for (int c = 0; c < 3; c++)
+            f_cos[c] += SINGULAR_SCALE * l->weight[c] * F[c];
+        *pdf += SINGULAR_SCALE * l->prob;
+    }
     return *pdf > 0.0f;
+}
+
+/* Directional albedo of one lobe by stratified sampling of that lobe (bumped normals). */
+static void lobe_albedo_quadrature(const closures *cl, int i, float alb[3])
+{
+    enum { SIDE = 32 };
+    const lobe *l = &cl->lobe[i];
+    double sum[3] = {0, 0, 0};
+    for (int a = 0; a < SIDE; a++) {
+        for (int b = 0; b < SIDE; b++) {
+            float u1 = (a + 0.5f) / SIDE, u2 = (b + 0.5f) / SIDE;
+            vec3 L;
+            float f[3], p;
+            if (i == LOBE_DIFFUSE) {
+                vec3 t, bt;
+                tangent_frame(l->N, &t, &bt);
+                float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
+                L = v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(bt, r * sinf(phi))),
+                           v3_scale(l->N, safe_sqrt(1.0f - u1)));
+                diffuse_eval(cl, l, L, &f[0], &p);
+                f[1] = f[2] = f[0];
+            } else {
+                if (!microfacet_sample(cl, l, u1, u2, &L))
+                    continue;
+                if (l->singular) {
+                    lobe_fresnel(l, v3_dot(l->N, cl->V), f);
+                    p = 1.0f;
+                } else {
+                    microfacet_eval(cl, l, L, f, &p);
+                }
+            }
+            if (p > 0.0f)
+                for (int c = 0; c < 3; c++)
+                    sum[c] += f[c] / p;
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        alb[c] = (float)(sum[c] / (SIDE * SIDE)) * l->weight[c];
 }
 
 void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
                        const float Ng[3], float albedo[3])
 {
-    (void)blender;
-    (void)Ng;
-    float ok = dot3(wo, in->N) > 0.0f ? 1.0f : 0.0f;
-    for (int c = 0; c < 3; c++)
-        albedo[c] = in->base_color[c] * ok;
+    closures cl;
+    albedo[0] = albedo[1] = albedo[2] = 0.0f;
+    if (!closures_setup(&cl, in, blender, wo, Ng))
+        return;
+    float roughness = cl.blender == 3 ? in->roughness : saturate(in->roughness);
+    for (int i = 0; i < N_LOBES; i++) {
+        const lobe *l = &cl.lobe[i];
+        if (!l->active)
+            continue;
+        float alb[3];
+        if (!v3_equal(l->N, cl.Ng)) {
+            lobe_albedo_quadrature(&cl, i, alb);
+        } else {
+            float mu = v3_dot(cl.V, l->N);
+            if (i == LOBE_DIFFUSE) {
+                float d = cl.blender == 3 ? diffuse_albedo_3x(cl.diffuse_roughness, mu) : 1.0f;
+                alb[0] = alb[1] = alb[2] = d;
+            } else if (l->singular) {
+                lobe_fresnel(l, mu, alb);
+            } else if (cl.blender == 3) {
+                microfacet_albedo_3x(l, roughness, mu, alb);
+            } else {
+                microfacet_albedo_4x(l, roughness, mu, alb);
+            }
+            for (int c = 0; c < 3; c++)
+                alb[c] *= l->weight[c];
+        }
+        for (int c = 0; c < 3; c++)
+            albedo[c] += alb[c];
+    }
 }
