@@ -33,11 +33,10 @@ Multiplexers, as DESIGN.md states them: a hard N-way switch picks input
 min(floor(v*N), N-1); the smooth colour switch interpolates neighbours at v*(N-1).
 Both are built from Math and Mix nodes only, so any evaluator of Blender nodes runs them.
 
-Node count: nodes as Blender's editor shows them with every group opened, i.e. every
-node of the material tree plus, for each group node, the nodes of its group (including
-its Group Input and Group Output), recursively, once per group instance. Printed on
-stdout together with the count after "Ungroup" (group nodes and group input/output
-nodes removed).
+Node count: every node of the material tree, a group node replaced by the nodes of its
+group (its Group Input and Group Output included), recursively, once per group instance
+(shadergraph's sg_graph_node_count). Printed on stdout together with the count after
+Blender's "Ungroup" (group input/output nodes removed too).
 """
 
 import argparse
@@ -704,16 +703,19 @@ def build():
 
 
 def count_nodes(tree, groups):
-    """(editor count with groups opened, count after ungrouping) for `tree`."""
+    """(count with groups expanded, count after ungrouping) for `tree`. Expanded: every
+    node, a group node replaced by its group's nodes (Group Input and Group Output
+    included), recursively, once per instance; this is sg_graph_node_count's count.
+    Ungrouped: Group Input/Output nodes gone too, as after Blender's Ungroup."""
     shown = ungrouped = 0
     for n in tree.nodes:
-        shown += 1
         if n["type"] == "ShaderNodeGroup":
             s, u = count_nodes(groups[n["group"]], groups)
             shown += s
             ungrouped += u
-        elif n["type"] not in ("NodeGroupInput", "NodeGroupOutput"):
-            ungrouped += 1
+        else:
+            shown += 1
+            ungrouped += n["type"] not in ("NodeGroupInput", "NodeGroupOutput")
     return shown, ungrouped
 
 
@@ -725,10 +727,10 @@ material every training sample is made from. It is written by
 change the generator, not the JSON. The thesis's own super-shader is lost (only a Git LFS
 pointer survives), so this one follows its description (thesis.md 5.1, 5.1.1).
 
-**Size.** {shown} nodes, counted as Blender's editor shows them with every group opened:
-each node of the material tree, plus, for every group node, the nodes of its group
-(including Group Input and Group Output), recursively, once per group instance. After
-Blender's *Ungroup* (group nodes and group input/output nodes gone) {ungrouped} remain.
+**Size.** {shown} nodes, counted with every group expanded in place: each node of the
+material tree, a group node replaced by the nodes of its group (Group Input and Group
+Output included), recursively, once per group instance (`sg_graph_node_count`). After
+Blender's *Ungroup* (group input/output nodes gone too) {ungrouped} remain.
 The thesis's super-shader had 507. Groups, with their instance counts: {groups}.
 
 **Parameters.** 50 floats in [0, 1], the outputs of the group `RandomValues` (no inputs;
@@ -843,7 +845,7 @@ def main():
     write_atomic(args.output, json.dumps(doc, indent=1) + "\n")
     if args.markdown:
         write_markdown(args.markdown, shown, ungrouped, t)
-    print("%s: %d nodes (groups opened, once per instance), %d after ungrouping, "
+    print("%s: %d nodes (groups expanded, once per instance), %d after ungrouping, "
           "%d parameters, %d groups" % (args.output, shown, ungrouped, len(PARAMS), len(GROUPS)))
 
 
