@@ -231,9 +231,11 @@ GO = "Group Output"
 
 
 def hard_switch(n):
-    """Hard N-way switch: Output = Input k, k = min(floor(Selector * N), N - 1).
-    A chain of Mix nodes whose factor is 0 or 1 (idx > k - 0.5), so the chosen input
-    passes through exactly (x*0 + y*1 = y)."""
+    """Hard N-way switch: Output = Input k, k = min(floor(Selector * N), N - 1), as a
+    sum of products: Output = sum over k of Input k * (index == k). Only Math nodes, so
+    a constant selector reduces exactly by x*1 = x, x*0 = 0 (finite x) and x+0 = x:
+    inputs should come from nodes whose outputs are known finite (clamped Map Range,
+    textures, ramps, clamped Math), which every switch input in this graph does."""
     name = "Hard Switch %d" % n
     if name in GROUPS:
         return GROUPS[name]
@@ -242,13 +244,17 @@ def hard_switch(n):
     g.math("Scale", "MULTIPLY", (GI, "Selector"), float(n), label="v * %d" % n)
     g.math("Floor", "FLOOR", ("Scale", "Value"))
     g.math("Index", "MINIMUM", ("Floor", "Value"), float(n - 1), label="min(floor(v*N), N-1)")
-    prev = (GI, "Input 0")
-    for k in range(1, n):
-        gt = g.math("Is %d" % k, "GREATER_THAN", ("Index", "Value"), k - 0.5,
-                    label="index >= %d" % k)
-        m = g.mix_float("Pick %d" % k, (gt, "Value"), prev, (GI, "Input %d" % k))
-        prev = (m, "Result_Float")
-    g.link(prev[0], prev[1], GO, "Output")
+    total = None
+    for k in range(n):
+        is_k = g.node("ShaderNodeMath", "Is %d" % k, {"operation": "COMPARE"},
+                      {"Value_001": float(k), "Value_002": 0.25}, label="index == %d" % k)
+        g.link("Index", "Value", is_k, "Value")
+        pick = g.math("Pick %d" % k, "MULTIPLY", (GI, "Input %d" % k), (is_k, "Value"))
+        if total is None:
+            total = (pick, "Value")
+        else:
+            total = (g.math("Sum %d" % k, "ADD", total, (pick, "Value")), "Value")
+    g.link(total[0], total[1], GO, "Output")
     return g
 
 
@@ -363,7 +369,7 @@ def noise_module():
     v7 = voronoi("Cell Edges", "DISTANCE_TO_EDGE")
     outs.append(norm(7, (v7, "Distance"), 0.0, 0.3, "SMOOTHSTEP"))
     v8 = voronoi("Cell Colour", "F1")  # its Color: one random colour per cell
-    outs.append((v8, "Color"))
+    outs.append(norm(8, (v8, "Color"), 0.0, 1.0))
     sw = hard_switch(9)
     s = g.group_node("Pattern Switch", sw, label="Mult 9: pattern")
     g.link(GI, "Pattern", s, "Selector")
@@ -384,7 +390,9 @@ def math_module():
                "DIVIDE": (0.0, 2.5), "MINIMUM": None, "MAXIMUM": None}
     outs = []
     for k, op in enumerate(MATH_OPS):
-        m = g.math(op.title(), op, (GI, "A"), (GI, "B"))
+        # Minimum and maximum of values in [0, 1] stay there: clamping changes nothing
+        # but says so (the extraction treats clamped results as finite).
+        m = g.math(op.title(), op, (GI, "A"), (GI, "B"), clamp=op in ("MINIMUM", "MAXIMUM"))
         w = windows[op]
         if w:
             outs.append((g.map_range("Normalize " + op.title(), (m, "Value"), 0.0, 1.0, w[0], w[1],
@@ -417,11 +425,12 @@ def value_mapping_module():
     outs.append((ste, "Result"))
     ramp = g.node("ShaderNodeValToRGB", "Ridge Ramp", ramp={
         "interpolation": "EASE", "color_mode": "RGB", "hue_interpolation": "NEAR",
-        "elements": [{"position": 0.0, "color": [0.0, 0.0, 0.0, 1.0]},
+        "elements": [{"position": 0.0, "color": [0.0, 0.0, 0.0, 0.0]},
                      {"position": 0.5, "color": [1.0, 1.0, 1.0, 1.0]},
-                     {"position": 1.0, "color": [0.0, 0.0, 0.0, 1.0]}]})
+                     {"position": 1.0, "color": [0.0, 0.0, 0.0, 0.0]}]})
     g.link(lin, "Result", ramp, "Fac")
-    outs.append((ramp, "Color"))
+    # Alpha carries the same ridge as a float (no colour-to-float conversion).
+    outs.append((ramp, "Alpha"))
     s = g.group_node("Mode Switch", hard_switch(4), label="Mult 4: mapping")
     g.link(GI, "Mode", s, "Selector")
     for k, o in enumerate(outs):
@@ -576,27 +585,20 @@ def build():
     t.link(offv, "Vector", shifted, "Vector_001")
     warpn = t.node("ShaderNodeTexNoise", "Warp Noise", inputs={"Scale": 1.5, "Detail": 3.0})
     t.link(shifted, "Vector", warpn, "Vector")
-    centred = t.node("ShaderNodeVectorMath", "Centre Warp", {"operation": "SUBTRACT"},
-                     inputs={"Vector_001": [0.5, 0.5, 0.5]})
-    t.link(warpn, "Color", centred, "Vector")
+    # coords = shifted + amount * warp colour: one node. The warp colour's mean (0.5)
+    # only translates every pattern by a constant, as Pattern Offset does.
     wsq = t.math("Warp Squared", "MULTIPLY", p("Warp Amount"), p("Warp Amount"))
     wamt = t.map_range("Warp Range", (wsq, "Value"), 0.0, 0.5, label="warp 0..0.5")
-    wscaled = t.node("ShaderNodeVectorMath", "Warp", {"operation": "SCALE"})
-    t.link(centred, "Vector", wscaled, "Vector")
-    t.link(wamt, "Result", wscaled, "Scale")
-    coords = t.node("ShaderNodeVectorMath", "Warped Coordinates", {"operation": "ADD"})
-    t.link(shifted, "Vector", coords, "Vector")
-    t.link(wscaled, "Vector", coords, "Vector_001")
+    coords = t.node("ShaderNodeVectorMath", "Warped Coordinates", {"operation": "MULTIPLY_ADD"})
+    t.link(warpn, "Color", coords, "Vector")
+    t.link(wamt, "Result", coords, "Vector_001")
+    t.link(shifted, "Vector", coords, "Vector_002")
 
-    # Three noise modules; fixed offsets keep equal settings from giving equal patterns.
+    # Three noise modules on the same coordinates: Pattern Offset (up to 100) times
+    # their different scales keeps them apart.
     signals = {}
-    for letter, shift in (("A", [0.0, 0.0, 0.0]), ("B", [17.3, -5.9, 3.1]), ("C", [-8.2, 29.7, -4.4])):
+    for letter in "ABC":
         src = (coords, "Vector")
-        if any(shift):
-            sh = t.node("ShaderNodeVectorMath", "Offset %s" % letter, {"operation": "ADD"},
-                        inputs={"Vector_001": shift})
-            t.link(coords, "Vector", sh, "Vector")
-            src = (sh, "Vector")
         m = t.group_node("Noise %s" % letter, nm)
         t.link(src[0], src[1], m, "Vector")
         for sock, pn in (("Pattern", "Mult 9 Noise %s Pattern"), ("Scale", "Noise %s Scale"),
@@ -663,7 +665,7 @@ def build():
 
     # Metallic: dielectric, metal, metal except under the accent (rust on steel), or
     # metal only under the accent (inlays, flakes).
-    bare = t.math("Bare Metal", "SUBTRACT", 1.0, (mask, "Result"))
+    bare = t.math("Bare Metal", "SUBTRACT", 1.0, (mask, "Result"), clamp=True)
     metal = t.group_node("Metal Mode", hard_switch(4), inputs={"Input 0": 0.0, "Input 1": 1.0})
     t.link(P, "Mult 4 Metal Mode", metal, "Selector")
     t.link(bare, "Value", metal, "Input 2")
@@ -680,7 +682,7 @@ def build():
     # Height -> Bump.
     hsrc = switch3("Bump Source", "Mult 3 Bump Source", [(st, "Value"), (de, "Value"), csrc])
     hsig = mapping("Bump Mapping", hsrc, "Bump")
-    inv = t.math("Inverted Height", "SUBTRACT", 1.0, hsig)
+    inv = t.math("Inverted Height", "SUBTRACT", 1.0, hsig, clamp=True)
     hsw = t.group_node("Bump Invert", hard_switch(2))
     t.link(P, "Mult 2 Bump Invert", hsw, "Selector")
     t.link(*hsig, hsw, "Input 0")
@@ -759,9 +761,11 @@ float conversion bit for bit was not worth it: the thesis's renders are lost too
 - *Parameter Colour* (3 instances: dark, light, accent): Hue walks a Color Ramp of real
   surface hues ({palette}); saturation is the palette's, scaled by the parameter squared
   (most materials muted, a few vivid); value is mapped per colour.
-- *Hard Switch N* (N = 2, 3, 4, 6, 9): `index = min(floor(v*N), N-1)`, then a chain of
-  float Mix nodes whose factors are `index > k - 0.5` (0 or 1), so the chosen input passes
-  through exactly. Built from Math and Mix nodes only.
+- *Hard Switch N* (N = 2, 3, 4, 6, 9): `index = min(floor(v*N), N-1)`, then
+  `sum_k Input k * (index == k)`, Math nodes only (Compare, Multiply, Add). For a bound
+  selector the extraction reduces it exactly (x*1 = x, x*0 = 0 for finite x, x+0 = x), so
+  every switch input comes from a node whose output is known finite (a clamped Map Range
+  or Math node, a texture, a ramp).
 - *Smooth Switch 4 Color*: `t = v*3`; a chain of colour Mix nodes with clamped factors
   `t - (k-1)` gives `lerp(Color j, Color j+1, t - j)`, j = floor(t). With selectors at bin
   centres (t = 0.375, 1.125, 1.875, 2.625) every choice is a blend of two neighbouring
