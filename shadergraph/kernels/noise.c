@@ -34,7 +34,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
-#if defined(__FMA__) && defined(__AVX__)
+#if (defined(__FMA__) && defined(__AVX__)) || defined(__AVX512F__)
 #include <immintrin.h>
 #endif
 
@@ -453,6 +453,313 @@ static void perlin_3d_many_v3(const npoint *pts, int count, float *out)
     perlin_3d_many(pts, count, out, true);
 }
 
+/* ---- Perlin noise of many shading points at once ----------------------------------
+ *
+ * The batch kernel evaluates NOISE_LANES shading points side by side: lane k holds point
+ * k's coordinates and performs exactly the scalar operations of perlin_1d..perlin_4d
+ * (the same fused multiply-adds, nothing else contracted, the same order), so each
+ * lane's value has the bits of its point evaluated alone. 16 lanes with AVX-512, else 8;
+ * without AVX the compiler lowers the vector types to scalar code. */
+#if defined(__AVX512F__)
+#define NOISE_LANES 16
+#else
+#define NOISE_LANES 8
+#endif
+typedef float lane_f __attribute__((vector_size(4 * NOISE_LANES)));
+typedef uint32_t lane_u __attribute__((vector_size(4 * NOISE_LANES)));
+typedef int32_t lane_i __attribute__((vector_size(4 * NOISE_LANES)));
+
+/* Coordinates of NOISE_LANES points; unused axes are ignored. */
+typedef struct lane_point {
+    lane_f x, y, z, w;
+} lane_point;
+
+static inline lane_f lane_splat(float v) { return (lane_f){0} + v; }
+static inline lane_u lane_splat_u(uint32_t v) { return (lane_u){0} + v; }
+
+static inline lane_f lane_fma(lane_f a, lane_f b, lane_f c)
+{
+#if NOISE_LANES == 16
+    return (lane_f)_mm512_fmadd_ps((__m512)a, (__m512)b, (__m512)c);
+#elif defined(__FMA__) && defined(__AVX__)
+    return (lane_f)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
+#else
+    lane_f r;
+    for (int k = 0; k < NOISE_LANES; k++)
+        r[k] = fmaf(a[k], b[k], c[k]);
+    return r;
+#endif
+}
+
+/* Lanes of a where mask is all ones, of b where it is zero. */
+static inline lane_f lane_select(lane_u mask, lane_f a, lane_f b)
+{
+    return (lane_f)(((lane_u)a & mask) | ((lane_u)b & ~mask));
+}
+
+/* floor_frac of each lane: floor rounds as floorf (keeping -0 and NaN), and the
+ * truncating conversion yields INT32_MIN for NaN and out-of-range values, as the scalar
+ * code's explicit test does. */
+static inline lane_f lane_floor_frac(lane_f x, lane_u *cell)
+{
+#if NOISE_LANES == 16
+    lane_f f = (lane_f)_mm512_roundscale_ps((__m512)x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    *cell = (lane_u)_mm512_cvttps_epi32((__m512)f);
+#elif defined(__AVX__)
+    lane_f f = (lane_f)_mm256_floor_ps((__m256)x);
+    *cell = (lane_u)_mm256_cvttps_epi32((__m256)f);
+#else
+    lane_f f;
+    for (int k = 0; k < NOISE_LANES; k++) {
+        int32_t i;
+        (void)floor_frac(x[k], &i);
+        (*cell)[k] = (uint32_t)i;
+        f[k] = floorf(x[k]);
+    }
+#endif
+    return x - f;
+}
+
+static inline lane_f lane_fade_scalar(lane_f t)
+{
+    return t * t * t * lane_fma(t, lane_fma(t, lane_splat(6.0f), lane_splat(-15.0f)),
+                                lane_splat(10.0f));
+}
+
+static inline lane_f lane_fade_simd(lane_f t)
+{
+    lane_f b = lane_fma(t, lane_fma(t, lane_splat(6.0f), lane_splat(-15.0f)), lane_splat(10.0f));
+    return (t * t) * (t * b);
+}
+
+static inline lane_f lane_mix(lane_f a, lane_f b, lane_f t, bool b3)
+{
+    return b3 ? lane_fma(t, b, (lane_splat(1.0f) - t) * a) : lane_fma(t, b - a, a);
+}
+
+static inline lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
+
+#define LANE_HASH_MIX(a, b, c)                                                             \
+    do {                                                                                   \
+        a -= c; a ^= lane_rot(c, 4);  c += b;                                               \
+        b -= a; b ^= lane_rot(a, 6);  a += c;                                               \
+        c -= b; c ^= lane_rot(b, 8);  b += a;                                               \
+        a -= c; a ^= lane_rot(c, 16); c += b;                                               \
+        b -= a; b ^= lane_rot(a, 19); a += c;                                               \
+        c -= b; c ^= lane_rot(b, 4);  b += a;                                               \
+    } while (0)
+
+#define LANE_HASH_FINAL(a, b, c)                                                           \
+    do {                                                                                   \
+        c ^= b; c -= lane_rot(b, 14);                                                       \
+        a ^= c; a -= lane_rot(c, 11);                                                       \
+        b ^= a; b -= lane_rot(a, 25);                                                       \
+        c ^= b; c -= lane_rot(b, 16);                                                       \
+        a ^= c; a -= lane_rot(c, 4);                                                        \
+        b ^= a; b -= lane_rot(a, 14);                                                       \
+        c ^= b; c -= lane_rot(b, 24);                                                       \
+    } while (0)
+
+/* hash_uint .. hash_uint4 of kernel_util.h, per lane. */
+static inline lane_u lane_hash1(lane_u kx)
+{
+    lane_u a, b, c;
+    a = b = c = lane_splat_u(0xdeadbeefu + (1u << 2) + 13u);
+    a += kx;
+    LANE_HASH_FINAL(a, b, c);
+    return c;
+}
+
+static inline lane_u lane_hash2(lane_u kx, lane_u ky)
+{
+    lane_u a, b, c;
+    a = b = c = lane_splat_u(0xdeadbeefu + (2u << 2) + 13u);
+    b += ky;
+    a += kx;
+    LANE_HASH_FINAL(a, b, c);
+    return c;
+}
+
+static inline lane_u lane_hash3(lane_u kx, lane_u ky, lane_u kz)
+{
+    lane_u a, b, c;
+    a = b = c = lane_splat_u(0xdeadbeefu + (3u << 2) + 13u);
+    c += kz;
+    b += ky;
+    a += kx;
+    LANE_HASH_FINAL(a, b, c);
+    return c;
+}
+
+static inline lane_u lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
+{
+    lane_u a, b, c;
+    a = b = c = lane_splat_u(0xdeadbeefu + (4u << 2) + 13u);
+    a += kx;
+    b += ky;
+    c += kz;
+    LANE_HASH_MIX(a, b, c);
+    a += kw;
+    LANE_HASH_FINAL(a, b, c);
+    return c;
+}
+
+/* The gradients of grad1 .. grad4 (sign flips as sign-bit xors). */
+static inline lane_f lane_grad1(lane_u hash)
+{
+    lane_u h = hash & 15u;
+    lane_f g = __builtin_convertvector((lane_i)(1u + (h & 7u)), lane_f);
+    return (lane_f)((lane_u)g ^ ((h & 8u) << 28));
+}
+
+static inline lane_f lane_grad2(lane_u hash, lane_f x, lane_f y)
+{
+    lane_u h = hash & 7u;
+    lane_u first = (lane_u)(h < 4u);
+    lane_f u = lane_select(first, x, y);
+    lane_f v = 2.0f * lane_select(first, y, x);
+    return (lane_f)((lane_u)u ^ ((h & 1u) << 31)) + (lane_f)((lane_u)v ^ ((h & 2u) << 30));
+}
+
+static inline lane_f lane_grad3(lane_u hash, lane_f x, lane_f y, lane_f z)
+{
+    lane_u h = hash & 15u;
+    lane_f u = lane_select((lane_u)(h < 8u), x, y);
+    lane_f vt = lane_select((lane_u)((h == 12u) | (h == 14u)), x, z);
+    lane_f v = lane_select((lane_u)(h < 4u), y, vt);
+    return (lane_f)((lane_u)u ^ ((h & 1u) << 31)) + (lane_f)((lane_u)v ^ ((h & 2u) << 30));
+}
+
+static inline lane_f lane_grad4(lane_u hash, lane_f x, lane_f y, lane_f z, lane_f w)
+{
+    lane_u h = hash & 31u;
+    lane_f u = lane_select((lane_u)(h < 24u), x, y);
+    lane_f v = lane_select((lane_u)(h < 16u), y, z);
+    lane_f s = lane_select((lane_u)(h < 8u), z, w);
+    return (lane_f)((lane_u)u ^ ((h & 1u) << 31)) + (lane_f)((lane_u)v ^ ((h & 2u) << 30)) +
+           (lane_f)((lane_u)s ^ ((h & 4u) << 29));
+}
+
+NOISE_INLINE lane_f lane_perlin_1d(lane_f x)
+{
+    lane_u X;
+    lane_f fx = lane_floor_frac(x, &X);
+    lane_f u = lane_fade_scalar(fx);
+    lane_f g0 = lane_grad1(lane_hash1(X)), g1 = lane_grad1(lane_hash1(X + 1u));
+    lane_f b = g1 * (fx - 1.0f);
+    return lane_fma(g0, fx, u * lane_fma(-g0, fx, b));
+}
+
+NOISE_INLINE lane_f lane_perlin_2d(lane_f x, lane_f y, bool b3)
+{
+    lane_u X, Y;
+    lane_f fx = lane_floor_frac(x, &X), fy = lane_floor_frac(y, &Y);
+    lane_f u = lane_fade_simd(fx), v = lane_fade_simd(fy);
+    lane_f fx1 = fx - 1.0f, fy1 = fy - 1.0f;
+    lane_f g00 = lane_grad2(lane_hash2(X, Y), fx, fy);
+    lane_f g01 = lane_grad2(lane_hash2(X, Y + 1u), fx, fy1);
+    lane_f g10 = lane_grad2(lane_hash2(X + 1u, Y), fx1, fy);
+    lane_f g11 = lane_grad2(lane_hash2(X + 1u, Y + 1u), fx1, fy1);
+    return lane_mix(lane_mix(g00, g10, u, b3), lane_mix(g01, g11, u, b3), v, b3);
+}
+
+NOISE_INLINE lane_f lane_perlin_3d(lane_f x, lane_f y, lane_f z, bool b3)
+{
+    lane_u X, Y, Z;
+    lane_f fx = lane_floor_frac(x, &X), fy = lane_floor_frac(y, &Y), fz = lane_floor_frac(z, &Z);
+    lane_f u = lane_fade_simd(fx), v = lane_fade_simd(fy), w = lane_fade_simd(fz);
+    lane_f fx1 = fx - 1.0f, fy1 = fy - 1.0f, fz1 = fz - 1.0f;
+    /* Corner c is (c >> 2, (c >> 1) & 1, c & 1), as in perlin_3d. */
+    lane_f g[8];
+    for (uint32_t c = 0; c < 8; c++) {
+        uint32_t dx = c >> 2, dy = (c >> 1) & 1u, dz = c & 1u;
+        g[c] = lane_grad3(lane_hash3(X + dx, Y + dy, Z + dz), dx ? fx1 : fx, dy ? fy1 : fy,
+                          dz ? fz1 : fz);
+    }
+    lane_f s00 = lane_mix(g[0], g[4], u, b3), s01 = lane_mix(g[1], g[5], u, b3);
+    lane_f s10 = lane_mix(g[2], g[6], u, b3), s11 = lane_mix(g[3], g[7], u, b3);
+    return lane_mix(lane_mix(s00, s10, v, b3), lane_mix(s01, s11, v, b3), w, b3);
+}
+
+NOISE_INLINE lane_f lane_perlin_4d(lane_f x, lane_f y, lane_f z, lane_f w, bool b3)
+{
+    lane_u X, Y, Z, W;
+    lane_f fx = lane_floor_frac(x, &X), fy = lane_floor_frac(y, &Y), fz = lane_floor_frac(z, &Z),
+           fw = lane_floor_frac(w, &W);
+    lane_f u = lane_fade_simd(fx), v = lane_fade_simd(fy), s = lane_fade_simd(fz),
+           t = lane_fade_simd(fw);
+    lane_f fx1 = fx - 1.0f, fy1 = fy - 1.0f, fz1 = fz - 1.0f, fw1 = fw - 1.0f;
+    /* Corner c in x, y, z as in perlin_4d, mixed along w first. */
+    lane_f m[8];
+    for (uint32_t c = 0; c < 8; c++) {
+        uint32_t dx = c >> 2, dy = (c >> 1) & 1u, dz = c & 1u;
+        lane_u cx = X + dx, cy = Y + dy, cz = Z + dz;
+        lane_f px = dx ? fx1 : fx, py = dy ? fy1 : fy, pz = dz ? fz1 : fz;
+        lane_f g0 = lane_grad4(lane_hash4(cx, cy, cz, W), px, py, pz, fw);
+        lane_f g1 = lane_grad4(lane_hash4(cx, cy, cz, W + 1u), px, py, pz, fw1);
+        m[c] = lane_mix(g0, g1, t, b3);
+    }
+    lane_f s00 = lane_mix(m[0], m[4], u, b3), s01 = lane_mix(m[1], m[5], u, b3);
+    lane_f s10 = lane_mix(m[2], m[6], u, b3), s11 = lane_mix(m[3], m[7], u, b3);
+    return lane_mix(lane_mix(s00, s10, v, b3), lane_mix(s01, s11, v, b3), s, b3);
+}
+
+/* wrap_coordinate per lane; the fmodf of the rare far lanes is done one at a time. */
+static inline lane_f lane_wrap(lane_f p)
+{
+    lane_u near = (lane_u)((lane_f)((lane_u)p & 0x7fffffffu) < 100000.0f);
+    uint32_t all_near = ~0u;
+    for (int k = 0; k < NOISE_LANES; k++)
+        all_near &= near[k];
+    if (all_near)
+        return p;
+    for (int k = 0; k < NOISE_LANES; k++)
+        p[k] = wrap_coordinate(p[k]);
+    return p;
+}
+
+static inline lane_f lane_finite_or_zero(lane_f v)
+{
+    lane_f magnitude = (lane_f)((lane_u)v & 0x7fffffffu);
+    return lane_select((lane_u)(magnitude < __builtin_inff()), v, lane_splat(0.0f));
+}
+
+/* Unscaled Perlin noise of NOISE_LANES points, per dimensions and Blender version (as
+ * perlin_1d_v4 .. perlin_4d_v3). */
+static void lane_perlin_1d_v4(const lane_point *p, lane_f *out)
+{
+    *out = lane_perlin_1d(lane_wrap(p->x));
+}
+static void lane_perlin_2d_v4(const lane_point *p, lane_f *out)
+{
+    *out = lane_perlin_2d(lane_wrap(p->x), lane_wrap(p->y), false);
+}
+static void lane_perlin_3d_v4(const lane_point *p, lane_f *out)
+{
+    *out = lane_perlin_3d(lane_wrap(p->x), lane_wrap(p->y), lane_wrap(p->z), false);
+}
+static void lane_perlin_4d_v4(const lane_point *p, lane_f *out)
+{
+    *out = lane_perlin_4d(lane_wrap(p->x), lane_wrap(p->y), lane_wrap(p->z), lane_wrap(p->w),
+                          false);
+}
+static void lane_perlin_1d_v3(const lane_point *p, lane_f *out)
+{
+    *out = lane_finite_or_zero(lane_perlin_1d(p->x));
+}
+static void lane_perlin_2d_v3(const lane_point *p, lane_f *out)
+{
+    *out = lane_finite_or_zero(lane_perlin_2d(p->x, p->y, true));
+}
+static void lane_perlin_3d_v3(const lane_point *p, lane_f *out)
+{
+    *out = lane_finite_or_zero(lane_perlin_3d(p->x, p->y, p->z, true));
+}
+static void lane_perlin_4d_v3(const lane_point *p, lane_f *out)
+{
+    *out = lane_finite_or_zero(lane_perlin_4d(p->x, p->y, p->z, p->w, true));
+}
+
 /* The other dimensions, one point at a time. */
 #define PERLIN_MANY(name, one)                                                             \
     static void name(const npoint *pts, int count, float *out)                             \
@@ -474,6 +781,8 @@ typedef struct noise_mode {
     bool blender3;
     /* Unscaled Perlin noise of `count` points. */
     void (*perlin_many)(const npoint *pts, int count, float *out);
+    /* Unscaled Perlin noise of NOISE_LANES points side by side (the batch path). */
+    void (*perlin_lanes)(const lane_point *p, lane_f *out);
     float scale; /* Cycles' noise_scale1..4: maps Perlin noise to about [-1, 1] */
 } noise_mode;
 
@@ -483,8 +792,13 @@ static noise_mode noise_mode_for(int dims, bool blender3)
         perlin_1d_many_v4, perlin_2d_many_v4, perlin_3d_many_v4, perlin_4d_many_v4};
     static void (*const many_v3[4])(const npoint *, int, float *) = {
         perlin_1d_many_v3, perlin_2d_many_v3, perlin_3d_many_v3, perlin_4d_many_v3};
+    static void (*const lanes_v4[4])(const lane_point *, lane_f *) = {
+        lane_perlin_1d_v4, lane_perlin_2d_v4, lane_perlin_3d_v4, lane_perlin_4d_v4};
+    static void (*const lanes_v3[4])(const lane_point *, lane_f *) = {
+        lane_perlin_1d_v3, lane_perlin_2d_v3, lane_perlin_3d_v3, lane_perlin_4d_v3};
     static const float scales[4] = {0.2500f, 0.6616f, 0.9820f, 0.8344f};
-    noise_mode m = {dims, blender3, blender3 ? many_v3[dims] : many_v4[dims], scales[dims]};
+    noise_mode m = {dims, blender3, blender3 ? many_v3[dims] : many_v4[dims],
+                    blender3 ? lanes_v3[dims] : lanes_v4[dims], scales[dims]};
     return m;
 }
 
@@ -917,6 +1231,144 @@ static void noise_point(const noise_node *nn, npoint p, const noise_inputs *in, 
     }
 }
 
+/* Reads point i's inputs, clamped as the node clamps them, and its noise coordinates.
+ * Only the sockets the dimensions make available are read. */
+static void read_point(const noise_node *nn, const sg_kernel_args *a, int i, noise_inputs *in,
+                       npoint *p)
+{
+    in->detail = a->in[IN_DETAIL][i];
+    in->roughness = a->in[IN_ROUGHNESS][i];
+    in->lacunarity = a->in[IN_LACUNARITY][i];
+    in->offset = a->in[IN_OFFSET][i];
+    in->gain = a->in[IN_GAIN][i];
+    in->distortion = a->in[IN_DISTORTION][i];
+    if (!nn->mode.blender3) {
+        in->detail = clampf(in->detail, 0.0f, 15.0f);
+        in->roughness = fmaxf(in->roughness, 0.0f);
+    } else if (nn->as_musgrave) {
+        in->musgrave_octaves = clampf(clampf(in->detail, 0.0f, 15.0f) + 1.0f, 0.0f, 15.0f);
+        in->musgrave_H = fmaxf(musgrave_dimension(in->roughness, in->lacunarity), 1e-5f);
+        in->musgrave_lacunarity = fmaxf(in->lacunarity, 1e-5f);
+    }
+
+    int n = a->n, dims = nn->mode.dims;
+    float s = a->in[IN_SCALE][i];
+    npoint q = {0.0f, 0.0f, 0.0f, 0.0f};
+    if (dims == DIMS_1D) {
+        q.x = a->in[IN_W][i] * s;
+    } else {
+        float3 v = f3_load(a->in[IN_VECTOR], n, i);
+        q.x = v.x * s;
+        q.y = v.y * s;
+        if (dims >= DIMS_3D)
+            q.z = v.z * s;
+        if (dims == DIMS_4D)
+            q.w = a->in[IN_W][i] * s;
+    }
+    *p = q;
+}
+
+static inline lane_point lp_add(lane_point p, npoint o)
+{
+    lane_point r = {p.x + o.x, p.y + o.y, p.z + o.z, p.w + o.w};
+    return r;
+}
+
+static inline lane_point lp_scale(lane_point p, lane_f s)
+{
+    lane_point r = {p.x * s, p.y * s, p.z * s, p.w * s};
+    return r;
+}
+
+/* The NOISE_LANES points first, first + 1, ... of the batch side by side: what
+ * noise_point does for each, with every Perlin evaluation done for all lanes at once.
+ * Lanes may have different octave counts (Detail is an input): each octave up to the
+ * largest count is evaluated for all lanes, and each lane's fractal combines only its
+ * own, serially in Cycles' order, so that every lane's result has the bits of
+ * noise_point's. */
+static void noise_lanes(const noise_node *nn, const sg_kernel_args *a, int first,
+                        float *fac_out, float *color_out)
+{
+    enum { L = NOISE_LANES };
+    const noise_mode *m = &nn->mode;
+    int dims = m->dims, n = a->n;
+    noise_inputs in[L];
+    lane_point p;
+    lane_f distortion;
+    for (int k = 0; k < L; k++) {
+        npoint q;
+        read_point(nn, a, first + k, &in[k], &q);
+        p.x[k] = q.x;
+        p.y[k] = q.y;
+        p.z[k] = q.z;
+        p.w[k] = q.w;
+        distortion[k] = in[k].distortion;
+    }
+
+    /* Distortion: lanes without it keep their point unchanged (noise_point skips it). */
+    lane_u distorted = (lane_u)(distortion != 0.0f);
+    bool any_distorted = false;
+    for (int k = 0; k < L; k++)
+        any_distorted |= distorted[k] != 0u;
+    if (any_distorted && !nn->as_musgrave) {
+        lane_f d[4] = {lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f)};
+        for (int k = 0; k <= dims; k++) {
+            lane_point q = lp_add(p, nn->distortion_seed[k]);
+            m->perlin_lanes(&q, &d[k]);
+            d[k] = m->scale * d[k] * distortion;
+        }
+        p.x = lane_select(distorted, p.x + d[0], p.x);
+        p.y = lane_select(distorted, p.y + d[1], p.y);
+        p.z = lane_select(distorted, p.z + d[2], p.z);
+        p.w = lane_select(distorted, p.w + d[3], p.w);
+    }
+
+    octave_layout l[L];
+    lane_f factor;
+    int most = 0;
+    for (int k = 0; k < L; k++) {
+        l[k] = fractal_layout(nn, &in[k]);
+        factor[k] = l[k].factor;
+        most = l[k].count > most ? l[k].count : most;
+    }
+    bool fbm = l[0].fbm; /* the same for every lane: a property of the node */
+
+    /* Octave i of set s (Fac; Color's green and blue at their seeds) is t[s][i]. */
+    bool three = color_out && !nn->as_musgrave;
+    int sets = three ? 3 : 1;
+    lane_f t[3][MAX_OCTAVES];
+    for (int s = 0; s < sets; s++) {
+        lane_point base = s == 0 ? p : lp_add(p, nn->color_seed[s - 1]);
+        lane_f fscale = lane_splat(1.0f);
+        for (int i = 0; i < most; i++) {
+            /* As scaled_points and octave_points step them. */
+            lane_point q = fbm ? lp_scale(base, fscale) : base;
+            m->perlin_lanes(&q, &t[s][i]);
+            if (fbm)
+                fscale *= factor;
+            else
+                base = lp_scale(base, factor);
+        }
+    }
+
+    for (int k = 0; k < L; k++) {
+        int c = l[k].count;
+        float tk[3 * MAX_OCTAVES];
+        for (int s = 0; s < sets; s++)
+            for (int i = 0; i < c; i++)
+                tk[s * c + i] = t[s][i][k];
+        float fac = fractal_value(nn, &in[k], tk);
+        if (fac_out)
+            fac_out[first + k] = fac;
+        if (color_out) {
+            float3 color = three ? make_float3(fac, fractal_value(nn, &in[k], tk + c),
+                                               fractal_value(nn, &in[k], tk + 2 * c))
+                                 : make_float3(fac, fac, fac);
+            f3_store(color_out, n, first + k, color);
+        }
+    }
+}
+
 static void tex_noise_kernel(const sg_kernel_args *a)
 {
     noise_node nn;
@@ -933,41 +1385,16 @@ static void tex_noise_kernel(const sg_kernel_args *a)
     nn.color_seed[0] = random_offset(dims, (float)n_axes);
     nn.color_seed[1] = random_offset(dims, (float)(n_axes + 1));
 
-    const float *vec = a->in[IN_VECTOR], *w = a->in[IN_W], *scale = a->in[IN_SCALE];
     float *fac_out = a->out[0], *color_out = a->out[1];
-    int n = a->n;
-    for (int i = 0; i < n; i++) {
+    int n = a->n, i = 0;
+    /* Whole groups of NOISE_LANES points side by side; the rest (and a one-point batch,
+     * as the pointwise evaluator runs) one at a time. Both give the same bits. */
+    for (; i + NOISE_LANES <= n; i += NOISE_LANES)
+        noise_lanes(&nn, a, i, fac_out, color_out);
+    for (; i < n; i++) {
         noise_inputs in;
-        in.detail = a->in[IN_DETAIL][i];
-        in.roughness = a->in[IN_ROUGHNESS][i];
-        in.lacunarity = a->in[IN_LACUNARITY][i];
-        in.offset = a->in[IN_OFFSET][i];
-        in.gain = a->in[IN_GAIN][i];
-        in.distortion = a->in[IN_DISTORTION][i];
-        if (!nn.mode.blender3) {
-            in.detail = clampf(in.detail, 0.0f, 15.0f);
-            in.roughness = fmaxf(in.roughness, 0.0f);
-        } else if (nn.as_musgrave) {
-            in.musgrave_octaves = clampf(clampf(in.detail, 0.0f, 15.0f) + 1.0f, 0.0f, 15.0f);
-            in.musgrave_H = fmaxf(musgrave_dimension(in.roughness, in.lacunarity), 1e-5f);
-            in.musgrave_lacunarity = fmaxf(in.lacunarity, 1e-5f);
-        }
-
-        /* Only the sockets the dimensions make available are read. */
-        float s = scale[i];
-        npoint p = {0.0f, 0.0f, 0.0f, 0.0f};
-        if (dims == DIMS_1D) {
-            p.x = w[i] * s;
-        } else {
-            float3 v = f3_load(vec, n, i);
-            p.x = v.x * s;
-            p.y = v.y * s;
-            if (dims >= DIMS_3D)
-                p.z = v.z * s;
-            if (dims == DIMS_4D)
-                p.w = w[i] * s;
-        }
-
+        npoint p;
+        read_point(&nn, a, i, &in, &p);
         float fac;
         float3 color;
         noise_point(&nn, p, &in, &fac, color_out ? &color : NULL);
