@@ -72,7 +72,7 @@ void winograd_weights_bf16(uint32_t *Ub, const float *U, int K, int C)
 
 /* ------------------------------------------------------------ chunk geometry ------ */
 
-/* A Winograd chunk is a run of whole tile rows (global row r = n * th + ty) of one image,
+/* A Winograd chunk is a run of whole tile rows (global row r = n * th + ty),
  * so that the transforms walk along rows with vector loads; an im2col chunk is a run of
  * output pixels of one image. */
 static void winograd_tiles(const conv_layer *L, int *th, int *tw)
@@ -89,8 +89,11 @@ static size_t row_floats(int W)
     return 2 * (size_t)((tw + 15) / 16 * 16) + 34;
 }
 
-/* Units (tile rows, or pixels) of one image. Chunks never span images, so an image's
- * result does not depend on what else is in the batch: same bits at any batch size. */
+/* Winograd chunks are runs of tile rows counted across the batch (a chunk may hold the
+ * end of one image and the start of the next): every column of the products is summed
+ * in the same order whatever else shares its chunk (gemm_block, AMX tiles), so an image's
+ * result does not depend on the batch. im2col chunks stay inside one image, because the
+ * sgemm they call gives no such promise. */
 static size_t units_per_image(const conv_layer *L)
 {
     int th, tw;
@@ -100,6 +103,8 @@ static size_t units_per_image(const conv_layer *L)
 
 size_t conv_chunk_count(const conv_layer *L)
 {
+    if (L->winograd)
+        return ((size_t)L->N * units_per_image(L) + L->chunk - 1) / L->chunk;
     return (size_t)L->N * ((units_per_image(L) + L->chunk - 1) / L->chunk);
 }
 
@@ -108,7 +113,12 @@ int conv_chunk_size(int winograd, int C, int K, int W, size_t budget)
     if (winograd) {
         size_t tw = (size_t)(W + 1) / 2, per_tile = 16 * (size_t)(C + K) * sizeof(float);
         size_t rows = budget / (per_tile * tw);
-        return rows < 1 ? 1 : (int)rows;
+        /* At least 96 tiles (two 48-wide kernel blocks): each weight of U is used once
+         * per tile of the chunk, so fewer tiles would make the deep layers stream
+         * their weights from memory for too little work. */
+        size_t min_rows = (96 + tw - 1) / tw;
+        rows = rows > min_rows ? rows : min_rows;
+        return (int)rows;
     }
     /* A multiple of 16 columns (one AVX-512 register of floats), at least 16. */
     size_t t = budget / ((9 * (size_t)C + (size_t)K) * sizeof(float)) / 16 * 16;
@@ -581,11 +591,15 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
 
 void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch)
 {
-    size_t units = units_per_image(L), per_image = (units + L->chunk - 1) / L->chunk;
+    size_t units = units_per_image(L);
+    if (L->winograd) {
+        size_t total = (size_t)L->N * units, begin = chunk * L->chunk;
+        int count = (int)(total - begin < (size_t)L->chunk ? total - begin : (size_t)L->chunk);
+        winograd_chunk(L, begin, count, scratch);
+        return;
+    }
+    size_t per_image = (units + L->chunk - 1) / L->chunk;
     size_t n = chunk / per_image, begin = (chunk % per_image) * L->chunk;
     int count = (int)(units - begin < (size_t)L->chunk ? units - begin : (size_t)L->chunk);
-    if (L->winograd)
-        winograd_chunk(L, n * units + begin, count, scratch);
-    else
-        im2col_chunk(L, n * units + begin, count, scratch);
+    im2col_chunk(L, n * units + begin, count, scratch);
 }
