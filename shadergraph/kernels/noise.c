@@ -1280,6 +1280,51 @@ static inline lane_point lp_scale(lane_point p, lane_f s)
     return r;
 }
 
+/* fbm4 (4.x) or fractal_noise3 (3.x's Noise Texture) of every lane at once, from the
+ * Perlin values t[i] of octaves i < most: lane k sums its own octaves i <= n_k with the
+ * scalar code's operations and takes its fractional octave from t[n_k + 1]; both
+ * endings are computed and each lane keeps the one its Detail selects. */
+static lane_f lane_fbm(const noise_node *nn, const noise_inputs *in, const lane_f *t, int most)
+{
+    const noise_mode *m = &nn->mode;
+    lane_i n;
+    lane_f rmd, roughness;
+    for (int k = 0; k < NOISE_LANES; k++) {
+        /* The clamps fractal_noise3 applies (4.x's were applied on reading). */
+        float octaves = m->blender3 ? clampf(in[k].detail, 0.0f, 15.0f) : in[k].detail;
+        roughness[k] = m->blender3 ? clampf(in[k].roughness, 0.0f, 1.0f) : in[k].roughness;
+        n[k] = (int)octaves;
+        rmd[k] = octaves - floorf(octaves);
+    }
+
+    lane_f amp = lane_splat(1.0f), maxamp = lane_splat(0.0f), sum = lane_splat(0.0f);
+    lane_f next = lane_splat(0.0f); /* the fractional octave's term */
+    for (int i = 0; i < most; i++) {
+        lane_f v = m->scale * t[i];
+        if (m->blender3)
+            v = lane_fma(lane_splat(0.5f), v, lane_splat(0.5f)); /* unsigned noise */
+        lane_u summed = (lane_u)(n >= i);
+        next = lane_select((lane_u)(n + 1 == i), v, next);
+        sum = lane_select(summed, lane_fma(v, amp, sum), sum);
+        maxamp = lane_select(summed, maxamp + amp, maxamp);
+        amp = lane_select(summed, amp * roughness, amp);
+    }
+
+    lane_f sum2 = lane_fma(next, amp, sum), whole, with_fraction;
+    if (m->blender3) {
+        whole = sum / maxamp;
+        with_fraction = lane_fma(rmd, sum2 / (maxamp + amp), (1.0f - rmd) * whole);
+    } else if (nn->normalize) {
+        whole = 0.5f * sum / maxamp + 0.5f;
+        lane_f part = 0.5f * sum2 / (maxamp + amp) + 0.5f;
+        with_fraction = lane_fma(rmd, part - whole, whole);
+    } else {
+        whole = sum;
+        with_fraction = lane_fma(rmd, sum2 - sum, sum);
+    }
+    return lane_select((lane_u)(rmd != 0.0f), with_fraction, whole);
+}
+
 /* The NOISE_LANES points first, first + 1, ... of the batch side by side: what
  * noise_point does for each, with every Perlin evaluation done for all lanes at once.
  * Lanes may have different octave counts (Detail is an input): each octave up to the
@@ -1323,15 +1368,16 @@ static void noise_lanes(const noise_node *nn, const sg_kernel_args *a, int first
         p.w = lane_select(distorted, p.w + d[3], p.w);
     }
 
-    octave_layout l[L];
     lane_f factor;
-    int most = 0;
+    int count[L], most = 0;
+    bool fbm = false; /* the same for every lane: a property of the node */
     for (int k = 0; k < L; k++) {
-        l[k] = fractal_layout(nn, &in[k]);
-        factor[k] = l[k].factor;
-        most = l[k].count > most ? l[k].count : most;
+        octave_layout lk = fractal_layout(nn, &in[k]);
+        count[k] = lk.count;
+        factor[k] = lk.factor;
+        fbm = lk.fbm;
+        most = lk.count > most ? lk.count : most;
     }
-    bool fbm = l[0].fbm; /* the same for every lane: a property of the node */
 
     /* Octave i of set s (Fac; Color's green and blue at their seeds) is t[s][i]. */
     bool three = color_out && !nn->as_musgrave;
@@ -1351,8 +1397,22 @@ static void noise_lanes(const noise_node *nn, const sg_kernel_args *a, int first
         }
     }
 
+    /* fBM, the usual case: combined in vector form. */
+    if (nn->mode.blender3 ? !nn->as_musgrave : nn->type == TYPE_FBM) {
+        lane_f fac = lane_fbm(nn, in, t[0], most);
+        for (int k = 0; fac_out && k < L; k++)
+            fac_out[first + k] = fac[k];
+        for (int s = 0; color_out && s < 3; s++) {
+            lane_f channel = s == 0 ? fac : lane_fbm(nn, in, t[s], most);
+            for (int k = 0; k < L; k++)
+                color_out[(size_t)s * (size_t)n + (size_t)(first + k)] = channel[k];
+        }
+        return;
+    }
+
+    /* The other fractals, lane by lane with the scalar code. */
     for (int k = 0; k < L; k++) {
-        int c = l[k].count;
+        int c = count[k];
         float tk[3 * MAX_OCTAVES];
         for (int s = 0; s < sets; s++)
             for (int i = 0; i < c; i++)
