@@ -81,14 +81,6 @@ static void winograd_tiles(const conv_layer *L, int *th, int *tw)
     *tw = (L->W + 1) / 2;
 }
 
-/* Floats of one padded input row: the tile loads of a 16-tile group read up to 16 floats
- * past the last tile, and the row starts one pixel left of the plane. */
-static size_t row_floats(int W)
-{
-    int tw = (W + 1) / 2;
-    return 2 * (size_t)((tw + 15) / 16 * 16) + 34;
-}
-
 /* Winograd chunks are runs of tile rows counted across the batch (a chunk may hold the
  * end of one image and the start of the next): every column of the products is summed
  * in the same order whatever else shares its chunk (gemm_block, AMX tiles), so an image's
@@ -129,17 +121,18 @@ size_t conv_scratch_floats(int winograd, int C, int K, int W, int chunk)
 {
     if (winograd) {
         size_t T = ((size_t)chunk * ((W + 1) / 2) + 15) / 16 * 16;
-        return 16 * (size_t)(C + K) * T + 4 * row_floats(W);
+        return 16 * (size_t)(C + K) * T + (size_t)W; /* V, M, a zero row */
     }
     return (9 * (size_t)C + (size_t)K) * chunk;
 }
 
 /* ------------------------------------------------------------ Winograd rows ------- */
 
-/* B^T d B for the tiles of one tile row of one channel. rows[i][j] is the input pixel
- * (2ty - 1 + i, j - 1), zero outside the plane, so tile tx's patch is columns
- * 2tx .. 2tx+3. Writes v[xi * xs + tx]. */
-static void input_transform_row(float *v, size_t xs, float *const rows[4], int tw)
+/* B^T d B for the tiles of one tile row of one channel. src[i] is input row 2ty - 1 + i
+ * (W pixels; a row of zeros above or below the plane), so tile tx's patch is columns
+ * 2tx-1 .. 2tx+2. Groups of 16 tiles inside the plane read the rows in place; a group
+ * touching the left or right edge reads a zero-padded copy. Writes v[xi * xs + tx]. */
+static void input_transform_row(float *v, size_t xs, const float *const src[4], int tw, int W)
 {
     int tx = 0;
 #ifdef __AVX512F__
@@ -149,8 +142,16 @@ static void input_transform_row(float *v, size_t xs, float *const rows[4], int t
     for (; tx < tw; tx += 16) {
         __mmask16 m = tw - tx >= 16 ? 0xffff : (__mmask16)((1u << (tw - tx)) - 1);
         __m512 d[4][4];
+        float edge[4][48]; /* columns 2tx-1 .. 2tx+32, zero outside the plane */
+        const int interior = 2 * tx - 1 >= 0 && 2 * tx + 32 <= W - 1;
+        if (!interior)
+            for (int i = 0; i < 4; i++)
+                for (int j = 0; j < 34; j++) {
+                    int x = 2 * tx - 1 + j;
+                    edge[i][j] = x >= 0 && x < W ? src[i][x] : 0.0f;
+                }
         for (int i = 0; i < 4; i++) {
-            const float *base = rows[i] + 2 * tx;
+            const float *base = interior ? src[i] + 2 * tx - 1 : edge[i];
             __m512 lo = _mm512_loadu_ps(base), hi = _mm512_loadu_ps(base + 16);
             __m512 lo2 = _mm512_loadu_ps(base + 2), hi2 = _mm512_loadu_ps(base + 18);
             d[i][0] = _mm512_permutex2var_ps(lo, even, hi);
@@ -185,7 +186,10 @@ static void input_transform_row(float *v, size_t xs, float *const rows[4], int t
         float d[4][4], b[4][4];
         for (int i = 0; i < 4; i++)
             for (int j = 0; j < 4; j++)
-                d[i][j] = rows[i][2 * tx + j];
+            {
+                int x = 2 * tx - 1 + j;
+                d[i][j] = x >= 0 && x < W ? src[i][x] : 0.0f;
+            }
         for (int j = 0; j < 4; j++) {
             b[0][j] = d[0][j] - d[2][j];
             b[1][j] = d[1][j] + d[2][j];
@@ -488,24 +492,20 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
     const size_t plane = (size_t)H * W, T = (size_t)rows_in_chunk * tw, Tp = (T + 15) / 16 * 16;
     float *V = scratch;                      // (16, C, Tp)
     float *M = V + 16 * (size_t)C * Tp;      // (16, K, Tp)
-    float *rowbuf = M + 16 * (size_t)K * Tp; // 4 padded input rows
-    const size_t rf = row_floats(W);
-    float *rows[4] = {rowbuf, rowbuf + rf, rowbuf + 2 * rf, rowbuf + 3 * rf};
-    memset(rowbuf, 0, 4 * rf * sizeof(float));
+    float *zeros = M + 16 * (size_t)K * Tp; // a row of W zeros, above and below the plane
+    memset(zeros, 0, (size_t)W * sizeof(float));
 
     for (int q = 0; q < rows_in_chunk; q++) {
         size_t r = row0 + (size_t)q;
         int n = (int)(r / th), ty = (int)(r % th);
         for (int c = 0; c < C; c++) {
             const float *x = L->in + ((size_t)n * C + c) * plane;
+            const float *src[4];
             for (int i = 0; i < 4; i++) {
                 int y = 2 * ty - 1 + i;
-                if (y >= 0 && y < H)
-                    memcpy(rows[i] + 1, x + (size_t)y * W, (size_t)W * sizeof(float));
-                else
-                    memset(rows[i] + 1, 0, (size_t)W * sizeof(float));
+                src[i] = y >= 0 && y < H ? x + (size_t)y * W : zeros;
             }
-            input_transform_row(V + (size_t)c * Tp + (size_t)q * tw, (size_t)C * Tp, rows, tw);
+            input_transform_row(V + (size_t)c * Tp + (size_t)q * tw, (size_t)C * Tp, src, tw, W);
         }
     }
     if (Tp > T)

@@ -80,7 +80,7 @@ static void test_winograd_shapes(void **state)
 {
     check_conv(2, 16, 24, 9, 37, 1, 1 << 20);  /* odd plane: partial tiles at both edges */
     check_conv(1, 16, 16, 6, 70, 1, 1 << 20);  /* 35 tiles a row: two 16-groups + tail */
-    check_conv(2, 8, 16, 5, 5, 1, 1);          /* one tile row per chunk */
+    check_conv(2, 8, 16, 5, 5, 1, 1);          /* smallest chunk: 96 tiles, spans images */
     check_conv(2, 32, 8, 4, 4, 1, 1 << 22);    /* whole images per chunk */
     check_conv(1, 12, 12, 7, 7, 1, 1 << 20);   /* K not a multiple of 8: sgemm fallback */
     check_conv(1, 64, 64, 20, 20, 1, 1 << 20); /* T = 10 * rows: 48/32/16 blocks */
