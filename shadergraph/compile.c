@@ -424,8 +424,8 @@ int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err)
     return 0;
 }
 
-sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
-                       const sg_compile_options *opt, sg_error *err)
+static sg_program *compile_flat(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
+                                const sg_compile_options *opt, sg_error *err)
 {
     compiler c = {.g = g, .err = err};
     sg_program *p = calloc(1, sizeof *p);
@@ -501,6 +501,33 @@ void sg_program_free(sg_program *p)
     free(p->output_type);
     free(p->ramps);
     free(p);
+}
+
+/* Compiles what Cycles would run: the graph after Cycles' constant folding (extract.c),
+ * whose algebraic folds (x * 0 = 0, Mix with factor 1 = B, ...) are part of what a
+ * Blender material computes. */
+sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
+                       const sg_compile_options *opt, sg_error *err)
+{
+    sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
+    sg_socket_ref *resolved = calloc((size_t)n_refs + 1, sizeof *resolved);
+    sg_socket_type *types = calloc((size_t)n_refs + 1, sizeof *types);
+    sg_graph *folded = resolved && types
+                           ? sg_fold_for_compile(g, mode, refs, n_refs, resolved, types, err)
+                           : NULL;
+    sg_program *p = NULL;
+    if (folded) {
+        sg_compile_options o = {.blender = mode};
+        p = compile_flat(folded, resolved, n_refs, &o, err);
+        for (int k = 0; p && k < n_refs; k++)
+            p->output_type[k] = types[k];
+    } else if (!resolved || !types) {
+        sg_error_set(err, "out of memory");
+    }
+    sg_graph_free(folded);
+    free(resolved);
+    free(types);
+    return p;
 }
 
 sg_socket_type sg_program_output_type(const sg_program *p, int k) { return p->output_type[k]; }

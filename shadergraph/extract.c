@@ -1,27 +1,21 @@
 /*
- * Sub-shader extraction: the small graph that computes exactly what a big graph
- * computes for one set of constant inputs (typically: the super-shader with its
- * parameters bound).
+ * Flattening and folding graphs: the sub-shader extraction of issue 3, and the graph
+ * the compiler actually compiles.
  *
- * 1. Inline every group into one flat tree and drop reroutes. Where a group's
- *    interface socket changes a value's type (a colour entering a float socket, say),
- *    a small converter node keeps the conversion Blender would have made there.
- * 2. Repeat until nothing changes:
- *    - fold: a node whose inputs are all constant (and that reads no geometry) is
- *      evaluated once, with the same kernel the evaluator uses, and its consumers get
- *      the values;
- *    - bypass identities whose result is the other operand bit for bit:
- *      x+0, x-0, x*1, x/1, x^1, and a Mix whose factor is 0;
- *    - absorbing cases: x*0 -> 0 when x is known finite, 0/x -> 0, x^0 -> 1;
- *    - merge nodes that compute the same thing from the same inputs;
- *    - drop nodes that do not reach the Material Output.
- * 3. Lay out the result in columns by depth from the output.
+ * 1. Inline every group into one flat tree and drop reroutes and Value/RGB nodes.
+ *    Where a group's interface socket changes a value's type (a colour entering a
+ *    float socket, say), a small converter node keeps the conversion Blender makes.
+ * 2. Repeat until nothing changes: apply Cycles' constant folding (see "Cycles'
+ *    constant folding" below: the same folds Blender applies before rendering, so
+ *    they are part of what a material computes), merge nodes that compute the same
+ *    thing from the same inputs, and (for extraction) drop nodes that do not reach
+ *    the Material Output.
+ * 3. For extraction, lay out the result in columns by depth from the output.
  *
- * "Bit for bit" is the contract: every rewrite must give the same float. Where IEEE
- * arithmetic says otherwise (a + (b - a) is not always b, so a Mix with factor 1 is
- * kept), the rewrite is not made. The one liberty taken is the sign of zero: x + 0
- * is +0 for x = -0, x * 0 is -0 for negative x, and the rewrites ignore that. The two
- * zeros compare equal, and the sub-shader test compares values with ==.
+ * sg_compile compiles the folded graph, and sg_extract returns it: so a sub-shader
+ * evaluates to exactly what its super-shader evaluates to, by construction, and
+ * tests/unit/test_extract.c checks it on the super-shader anyway. Values are compared
+ * with ==: the folds are Cycles' algebraic ones, which may turn -0 into +0.
  */
 #include <math.h>
 #include <stdio.h>
@@ -425,6 +419,14 @@ static void redirect_output(flat *f, int node, int socket, int src, int src_sock
     }
 }
 
+static bool has_output_consumers(const flat *f, int node, int socket)
+{
+    for (int l = 0; l < f->t.n_links; l++)
+        if (f->t.links[l].from_node == node && f->t.links[l].from_socket == socket)
+            return true;
+    return false;
+}
+
 static bool has_consumers(const flat *f, int node)
 {
     for (int l = 0; l < f->t.n_links; l++)
@@ -433,148 +435,372 @@ static bool has_consumers(const flat *f, int node)
     return false;
 }
 
-/* Evaluates a node whose inputs are all constant, with its own kernel. */
-static bool fold_node(flat *f, int node, sg_blender_mode mode)
+/* ---- Cycles' constant folding ------------------------------------------------------
+ *
+ * Blender renders a material after Cycles has constant-folded its graph, and some of
+ * those folds are algebraic rather than arithmetic: x * 0 is 0 even where x is
+ * infinite, a Mix with factor 1 is B itself rather than a + (b - a). So the folds
+ * are part of what a node graph computes, and this evaluator applies exactly the ones
+ * Cycles applies (scene/shader_nodes.cpp and constant_fold.cpp of Blender 3.4 and 4.3),
+ * no more: that is what lets a sub-shader equal its super-shader bit for bit, and both
+ * equal Blender. The rules, per node:
+ *   - all inputs constant: the node becomes its value (Map Range, textures, Texture
+ *     Coordinate and Bump never do);
+ *   - Math: x+0, 0+x, x-0, x*1, 1*x, x/1, x^1 -> x; x*0, 0*x, 0/x -> 0; 1^x, x^0 -> 1
+ *     (use_clamp is a Clamp node after the Math in Cycles: we keep the node instead of
+ *     bypassing, which computes the same clamp(x));
+ *   - Vector Math: the same for ADD, SUBTRACT, MULTIPLY, DIVIDE (x/0 -> 0 too), SCALE,
+ *     and zero for DOT/CROSS with a zero operand, LENGTH/ABSOLUTE of zero;
+ *   - Mix (colour) and Mix RGB: factor 0 -> A (except Lighten, Dodge, Burn), and per
+ *     blend mode the rules of fold_mix; Mix float/vector: factor 0 -> A, factor 1 -> B,
+ *     A and B the same -> A (Blender 4.x only; 3.x folds them only when all constant);
+ *   - Mapping: zero scale -> 0; an identity transform -> the vector;
+ *   - Invert: factor 0 -> the colour;
+ *   - Bump: no Height link -> the Normal input.
+ * "Constant 0" means an unlinked input equal to 0 (so -0 too; NaN never). */
+
+typedef struct fold {
+    flat *f;
+    int node;
+    sg_blender_mode mode;
+} fold;
+
+static bool is_vec_type(sg_socket_type t) { return t == SG_SOCKET_VECTOR || t == SG_SOCKET_COLOR; }
+
+static bool input_constant(const fold *x, int k)
 {
-    sg_node *n = &f->t.nodes[node];
-    const sg_node_type *t = n->type;
-    if (!t->kernel || (t->flags & (SG_NODE_READS_GEOMETRY | SG_NODE_SINK)) ||
-        !strcmp(t->idname, "ShaderNodeBump"))
+    return k >= 0 && is_const_input(x->f, x->node, k);
+}
+
+/* Cycles' is_zero / is_one: unlinked and every component equal. */
+static bool input_equals(const fold *x, int k, float v)
+{
+    if (!input_constant(x, k))
         return false;
-    for (int k = 0; k < n->n_in; k++)
-        if (n->in[k].available && !is_const_input(f, node, k))
+    const sg_socket *s = &x->f->t.nodes[x->node].in[k];
+    int w = is_vec_type(s->type) ? 3 : 1;
+    for (int c = 0; c < w; c++)
+        if (!(s->value[c] == v))
             return false;
+    return true;
+}
+
+static int in_index(const fold *x, const char *id) { return sg_node_input_index(&x->f->t.nodes[x->node], id); }
+static int out_index(const fold *x, const char *id) { return sg_node_output_index(&x->f->t.nodes[x->node], id); }
+
+/* Gives the consumers of output `out` the constant v (in the output's type). */
+static bool make_constant(fold *x, int out, const float *v)
+{
+    return replace_output_by_constant(x->f, x->node, out, x->f->t.nodes[x->node].out[out].type, v) > 0;
+}
+
+static bool make_value(fold *x, int out, float value)
+{
+    float v[4] = {value, value, value, 1.0f};
+    return make_constant(x, out, v);
+}
+
+/* Cycles' try_bypass_or_make_constant for input `in` standing in for output `out`
+ * (same socket type): the input's constant (saturated if `clamp`), or its link when
+ * not clamping. With `clamp` and a linked input Cycles keeps the node but cuts the
+ * node's other links, so they read their stored values (a quirk we reproduce). */
+static bool try_bypass(fold *x, int in, int out, bool clamp)
+{
+    flat *f = x->f;
+    sg_node *n = &f->t.nodes[x->node];
+    if (in < 0 || out < 0 || n->in[in].type != n->out[out].type)
+        return false;
+    if (input_constant(x, in)) {
+        float v[4];
+        memcpy(v, n->in[in].value, sizeof v);
+        if (clamp)
+            for (int c = 0; c < 3; c++)
+                v[c] = v[c] > 0.0f ? (v[c] < 1.0f ? v[c] : 1.0f) : 0.0f;
+        return make_constant(x, out, v);
+    }
+    int l = input_link(f, x->node, in);
+    if (l < 0)
+        return false; /* implicit geometry input: not a link we can point at */
+    if (clamp) {
+        bool cut = false;
+        for (int k = 0; k < n->n_in; k++) {
+            int lk = k == in ? -1 : input_link(f, x->node, k);
+            if (lk >= 0) {
+                remove_link(f, lk);
+                cut = true;
+            }
+        }
+        return cut;
+    }
+    /* Our links convert implicitly (Cycles inserts convert nodes). Relinking the
+     * consumers straight to the source is exact when no conversion happened at this
+     * input, or when the source is a float (a broadcast composes with any conversion
+     * after it, and Cycles folds float -> colour -> float back to the float). */
+    const sg_link *lk = &f->t.links[l];
+    sg_socket_type src = f->t.nodes[lk->from_node].out[lk->from_socket].type;
+    if (src != n->in[in].type && is_vec_type(src))
+        return false;
+    bool any = has_output_consumers(f, x->node, out);
+    redirect_output(f, x->node, out, lk->from_node, lk->from_socket);
+    return any;
+}
+
+/* All inputs constant: the node's value, computed by its own kernel. */
+static bool fold_all_constant(fold *x)
+{
+    flat *f = x->f;
+    sg_node *n = &f->t.nodes[x->node];
+    const sg_node_type *t = n->type;
     float inv[16][4], outv[16][4];
     const float *in[16];
     float *out[16];
     if (n->n_in > 16 || n->n_out > 16)
         return false;
     for (int k = 0; k < n->n_in; k++) {
-        /* n = 1: a planar vector is just x, y, z. */
-        memcpy(inv[k], n->in[k].value, sizeof inv[k]);
+        memcpy(inv[k], n->in[k].value, sizeof inv[k]); /* n = 1: planar is x, y, z */
         in[k] = inv[k];
     }
     for (int k = 0; k < n->n_out; k++)
         out[k] = outv[k];
-    sg_kernel_args a = {.n = 1, .blender = mode, .prop = n->prop, .ramp = n->ramp,
+    sg_kernel_args a = {.n = 1, .blender = x->mode, .prop = n->prop, .ramp = n->ramp,
                         .in = in, .out = out, .geom = NULL, .offset = 0};
-    t->kernel(&a);
+    if (!strcmp(t->idname, "ShaderNodeInvert")) {
+        /* Cycles folds Invert as interp(c, 1 - c, fac), not the kernel's
+         * fac * (1 - c) + (1 - fac) * c: the last bit can differ. */
+        float fac = n->in[0].value[0];
+        for (int c = 0; c < 3; c++) {
+            float col = n->in[1].value[c];
+            outv[0][c] = col + fac * ((1.0f - col) - col);
+        }
+        outv[0][3] = 1.0f;
+    } else {
+        if (n->ramp && n->ramp->baked_steps == 0)
+            sg_color_ramp_bake(n->ramp, x->mode);
+        t->kernel(&a);
+    }
     int replaced = 0;
     for (int k = 0; k < n->n_out; k++)
-        replaced += replace_output_by_constant(f, node, k, n->out[k].type, outv[k]);
+        replaced += make_constant(x, k, outv[k]);
     return replaced > 0;
 }
 
-/* Values that are certainly finite, for the x*0 rule: textures, ramps and anything
- * clamped. Conservative: false when unsure. */
-static bool known_finite(const flat *f, int node, int socket)
+static bool fold_math(fold *x)
 {
-    const sg_node *n = &f->t.nodes[node];
-    const char *id = n->type->idname;
-    if (!strcmp(id, "ShaderNodeTexNoise") || !strcmp(id, "ShaderNodeTexWhiteNoise") ||
-        !strcmp(id, "ShaderNodeValToRGB") || !strcmp(id, "ShaderNodeTexCoord"))
-        return true;
-    if (!strcmp(id, "ShaderNodeTexVoronoi"))
-        return strcmp(n->out[socket].identifier, "Position") != 0;
-    if (!strcmp(id, "ShaderNodeMath") || !strcmp(id, "ShaderNodeMapRange"))
-        return prop_of(n, !strcmp(id, "ShaderNodeMath") ? "use_clamp" : "clamp") == 1;
-    if (!strcmp(id, "ShaderNodeClamp"))
-        return true;
-    return false;
-}
-
-/* Math identities and absorbing elements. Returns true if the graph changed. */
-static bool simplify_math(flat *f, int node)
-{
-    sg_node *n = &f->t.nodes[node];
-    if (strcmp(n->type->idname, "ShaderNodeMath") != 0 || prop_of(n, "use_clamp") == 1)
-        return false;
-    bool c0 = is_const_input(f, node, 0), c1 = is_const_input(f, node, 1);
-    float v0 = n->in[0].value[0], v1 = n->in[1].value[0];
-    /* The varying operand, if it can stand for the result: only when no type
-     * conversion happened at the input (a colour's luminance is not the colour). */
-    int l0 = input_link(f, node, 0), l1 = input_link(f, node, 1);
-    bool pass0 = l0 >= 0 && f->t.nodes[f->t.links[l0].from_node].out[f->t.links[l0].from_socket].type == SG_SOCKET_FLOAT;
-    bool pass1 = l1 >= 0 && f->t.nodes[f->t.links[l1].from_node].out[f->t.links[l1].from_socket].type == SG_SOCKET_FLOAT;
-    int pass = -1;
-    float constant = 0.0f;
-    bool absorb = false;
+    sg_node *n = &x->f->t.nodes[x->node];
+    bool clamp = prop_of(n, "use_clamp") == 1;
+    int v1 = 0, v2 = 1, out = 0;
+    /* With use_clamp, Cycles' Clamp node follows: constants are saturated, and a
+     * bypass would leave clamp(x), which the node itself computes. */
+    float zero = 0.0f, one = 1.0f;
     if (prop_is(n, "operation", "ADD")) {
-        if (c1 && v1 == 0.0f && pass0)
-            pass = 0;
-        else if (c0 && v0 == 0.0f && pass1)
-            pass = 1;
+        if (input_equals(x, v1, 0.0f))
+            return !clamp && try_bypass(x, v2, out, false);
+        if (input_equals(x, v2, 0.0f))
+            return !clamp && try_bypass(x, v1, out, false);
     } else if (prop_is(n, "operation", "SUBTRACT")) {
-        if (c1 && v1 == 0.0f && pass0)
-            pass = 0;
+        if (input_equals(x, v2, 0.0f))
+            return !clamp && try_bypass(x, v1, out, false);
     } else if (prop_is(n, "operation", "MULTIPLY")) {
-        if (c1 && v1 == 1.0f && pass0)
-            pass = 0;
-        else if (c0 && v0 == 1.0f && pass1)
-            pass = 1;
-        else if ((c1 && v1 == 0.0f && l0 >= 0 && known_finite(f, f->t.links[l0].from_node, f->t.links[l0].from_socket)) ||
-                 (c0 && v0 == 0.0f && l1 >= 0 && known_finite(f, f->t.links[l1].from_node, f->t.links[l1].from_socket)))
-            absorb = true, constant = 0.0f;
+        if (input_equals(x, v1, 1.0f))
+            return !clamp && try_bypass(x, v2, out, false);
+        if (input_equals(x, v2, 1.0f))
+            return !clamp && try_bypass(x, v1, out, false);
+        if (input_equals(x, v1, 0.0f) || input_equals(x, v2, 0.0f))
+            return make_value(x, out, zero);
     } else if (prop_is(n, "operation", "DIVIDE")) {
-        if (c1 && v1 == 1.0f && pass0)
-            pass = 0;
-        else if (c0 && v0 == 0.0f)
-            absorb = true, constant = 0.0f; /* safe division: 0/x is 0 (or -0), and 0 for x = 0 */
+        if (input_equals(x, v2, 1.0f))
+            return !clamp && try_bypass(x, v1, out, false);
+        if (input_equals(x, v1, 0.0f))
+            return make_value(x, out, zero);
     } else if (prop_is(n, "operation", "POWER")) {
-        if (c1 && v1 == 1.0f && pass0)
-            pass = 0;
-        else if (c1 && v1 == 0.0f)
-            absorb = true, constant = 1.0f; /* pow(x, 0) = 1 for every x */
-    }
-    if (pass >= 0) {
-        const sg_link *l = &f->t.links[pass == 0 ? l0 : l1];
-        redirect_output(f, node, 0, l->from_node, l->from_socket);
-        return true;
-    }
-    if (absorb) {
-        float v[4] = {constant, 0, 0, 0};
-        return replace_output_by_constant(f, node, 0, SG_SOCKET_FLOAT, v) > 0;
+        if (input_equals(x, v1, 1.0f) || input_equals(x, v2, 0.0f))
+            return make_value(x, out, one);
+        if (input_equals(x, v2, 1.0f))
+            return !clamp && try_bypass(x, v1, out, false);
     }
     return false;
 }
 
-/* Mix with a constant factor of 0 returns A: a + 0 * (b - a) is a when b - a is
- * finite and a is not -0. We require both operands known finite (so b - a cannot
- * overflow... it can: finite - finite may overflow only beyond 1.7e38, which known
- * finite sources never reach) and accept the -0 liberty stated at the top. */
-static bool simplify_mix(flat *f, int node)
+static bool fold_vector_math(fold *x)
 {
-    sg_node *n = &f->t.nodes[node];
-    if (strcmp(n->type->idname, "ShaderNodeMix") != 0)
-        return false;
-    int dt = prop_of(n, "data_type"); /* FLOAT, VECTOR, RGBA */
-    if (dt == 1 && prop_is(n, "factor_mode", "NON_UNIFORM"))
-        return false;
-    if (dt == 2 && (prop_of(n, "clamp_result") == 1 || !prop_is(n, "blend_type", "MIX")))
-        return false;
-    const char *fac = dt == 1 ? "Factor_Float" : "Factor_Float";
-    const char *a_id = dt == 0 ? "A_Float" : dt == 1 ? "A_Vector" : "A_Color";
-    const char *b_id = dt == 0 ? "B_Float" : dt == 1 ? "B_Vector" : "B_Color";
-    const char *r_id = dt == 0 ? "Result_Float" : dt == 1 ? "Result_Vector" : "Result_Color";
-    int kf = sg_node_input_index(n, fac), ka = sg_node_input_index(n, a_id),
-        kb = sg_node_input_index(n, b_id), kr = sg_node_output_index(n, r_id);
-    if (kf < 0 || ka < 0 || kb < 0 || kr < 0 || !is_const_input(f, node, kf) || n->in[kf].value[0] != 0.0f)
-        return false;
-    int la = input_link(f, node, ka), lb = input_link(f, node, kb);
-    bool b_finite = lb < 0 || known_finite(f, f->t.links[lb].from_node, f->t.links[lb].from_socket);
-    if (!b_finite)
-        return false;
-    if (la < 0) {
-        if (!isfinite(n->in[ka].value[0]))
-            return false;
-        return replace_output_by_constant(f, node, kr, n->in[ka].type, n->in[ka].value) > 0;
+    sg_node *n = &x->f->t.nodes[x->node];
+    int v1 = in_index(x, "Vector"), v2 = in_index(x, "Vector_001"), sc = in_index(x, "Scale");
+    int ov = out_index(x, "Vector"), of = out_index(x, "Value");
+    bool zero = false;
+    int pass = -1;
+    if (prop_is(n, "operation", "ADD")) {
+        pass = input_equals(x, v1, 0.0f) ? v2 : input_equals(x, v2, 0.0f) ? v1 : -1;
+    } else if (prop_is(n, "operation", "SUBTRACT")) {
+        pass = input_equals(x, v2, 0.0f) ? v1 : -1;
+    } else if (prop_is(n, "operation", "MULTIPLY")) {
+        zero = input_equals(x, v1, 0.0f) || input_equals(x, v2, 0.0f);
+        pass = zero ? -1 : input_equals(x, v1, 1.0f) ? v2 : input_equals(x, v2, 1.0f) ? v1 : -1;
+    } else if (prop_is(n, "operation", "DIVIDE")) {
+        zero = input_equals(x, v1, 0.0f) || input_equals(x, v2, 0.0f);
+        pass = zero ? -1 : input_equals(x, v2, 1.0f) ? v1 : -1;
+    } else if (prop_is(n, "operation", "DOT_PRODUCT") || prop_is(n, "operation", "CROSS_PRODUCT")) {
+        zero = input_equals(x, v1, 0.0f) || input_equals(x, v2, 0.0f);
+    } else if (prop_is(n, "operation", "LENGTH") || prop_is(n, "operation", "ABSOLUTE")) {
+        zero = input_equals(x, v1, 0.0f);
+    } else if (prop_is(n, "operation", "SCALE")) {
+        zero = input_equals(x, v1, 0.0f) || input_equals(x, sc, 0.0f);
+        pass = zero ? -1 : input_equals(x, sc, 1.0f) ? v1 : -1;
     }
-    const sg_link *l = &f->t.links[la];
-    if (f->t.nodes[l->from_node].out[l->from_socket].type != n->in[ka].type ||
-        !known_finite(f, l->from_node, l->from_socket))
+    bool changed = false;
+    if (zero) {
+        changed |= make_value(x, ov, 0.0f);
+        changed |= make_value(x, of, 0.0f);
+    } else if (pass >= 0) {
+        changed |= try_bypass(x, pass, ov, false); /* the Value output has another type */
+    }
+    return changed;
+}
+
+/* Cycles' fold_mix / fold_mix_color, for Mix RGB and the colour Mix; also the blend
+ * rules the 4.x vector Mix uses. fac0/fac1: an unlinked factor equal to 0 / 1 after
+ * the factor clamp (if any). */
+static bool fold_mix_blend(fold *x, const char *blend, int fac, int a, int b, int out, bool clamp_factor,
+                           bool clamp)
+{
+    sg_node *n = &x->f->t.nodes[x->node];
+    float fv = n->in[fac].value[0];
+    if (clamp_factor)
+        fv = fv > 0.0f ? (fv < 1.0f ? fv : 1.0f) : 0.0f; /* NaN -> 0, as saturatef */
+    bool fac0 = input_constant(x, fac) && fv == 0.0f;
+    bool fac1 = input_constant(x, fac) && fv == 1.0f;
+    if (fac0 && strcmp(blend, "LIGHTEN") && strcmp(blend, "DODGE") && strcmp(blend, "BURN")) {
+        if (try_bypass(x, a, out, clamp))
+            return true;
+    }
+    int la = input_link(x->f, x->node, a), lb = input_link(x->f, x->node, b);
+    const sg_link *LA = la >= 0 ? &x->f->t.links[la] : NULL, *LB = lb >= 0 ? &x->f->t.links[lb] : NULL;
+    bool same_link = LA && LB && LA->from_node == LB->from_node && LA->from_socket == LB->from_socket;
+    if (!strcmp(blend, "MIX")) {
+        if (same_link)
+            return try_bypass(x, a, out, clamp);
+        if (input_constant(x, a) && input_constant(x, b) && n->in[a].value[0] == n->in[b].value[0] &&
+            n->in[a].value[1] == n->in[b].value[1] && n->in[a].value[2] == n->in[b].value[2])
+            return try_bypass(x, a, out, clamp);
+        if (fac1)
+            return try_bypass(x, b, out, clamp);
+    } else if (!strcmp(blend, "ADD")) {
+        if (input_equals(x, a, 0.0f) && fac1)
+            return try_bypass(x, b, out, clamp);
+        if (input_equals(x, b, 0.0f))
+            return try_bypass(x, a, out, clamp);
+    } else if (!strcmp(blend, "SUBTRACT")) {
+        if (input_equals(x, b, 0.0f))
+            return try_bypass(x, a, out, clamp);
+        if (same_link && fac1)
+            return make_value(x, out, 0.0f);
+    } else if (!strcmp(blend, "MULTIPLY")) {
+        if (input_equals(x, a, 1.0f) && fac1)
+            return try_bypass(x, b, out, clamp);
+        if (input_equals(x, b, 1.0f))
+            return try_bypass(x, a, out, clamp);
+        if (input_equals(x, a, 0.0f) || (input_equals(x, b, 0.0f) && fac1))
+            return make_value(x, out, 0.0f);
+    } else if (!strcmp(blend, "DIVIDE")) {
+        if (input_equals(x, b, 1.0f))
+            return try_bypass(x, a, out, clamp);
+        if (input_equals(x, a, 0.0f))
+            return make_value(x, out, 0.0f);
+    }
+    return false;
+}
+
+static const char *enum_name(const sg_node *n, const char *prop)
+{
+    int k = sg_node_type_prop_index(n->type, prop);
+    return k >= 0 ? n->type->props[k].values[n->prop[k]] : "";
+}
+
+static bool fold_mix(fold *x)
+{
+    sg_node *n = &x->f->t.nodes[x->node];
+    const char *dt = enum_name(n, "data_type");
+    bool clamp_factor = prop_of(n, "clamp_factor") == 1;
+    int fac = in_index(x, "Factor_Float");
+    if (!strcmp(dt, "RGBA"))
+        return fold_mix_blend(x, enum_name(n, "blend_type"), fac, in_index(x, "A_Color"),
+                              in_index(x, "B_Color"), out_index(x, "Result_Color"), clamp_factor,
+                              prop_of(n, "clamp_result") == 1);
+    if (x->mode == SG_BLENDER_3)
+        return false; /* 3.x folds float and vector Mix only when all inputs are constant */
+    if (!strcmp(dt, "VECTOR")) {
+        if (prop_is(n, "factor_mode", "NON_UNIFORM"))
+            return false;
+        return fold_mix_blend(x, "MIX", fac, in_index(x, "A_Vector"), in_index(x, "B_Vector"),
+                              out_index(x, "Result_Vector"), clamp_factor, false);
+    }
+    /* FLOAT: factor 0 -> A; A, B the same link or equal constants -> A; factor 1 -> B. */
+    int a = in_index(x, "A_Float"), b = in_index(x, "B_Float"), out = out_index(x, "Result_Float");
+    float fv = n->in[fac].value[0];
+    if (clamp_factor)
+        fv = fv > 0.0f ? (fv < 1.0f ? fv : 1.0f) : 0.0f;
+    bool fac_const = input_constant(x, fac);
+    if (fac_const && fv == 0.0f)
+        return try_bypass(x, a, out, false);
+    int la = input_link(x->f, x->node, a), lb = input_link(x->f, x->node, b);
+    if (la >= 0 && lb >= 0 && x->f->t.links[la].from_node == x->f->t.links[lb].from_node &&
+        x->f->t.links[la].from_socket == x->f->t.links[lb].from_socket)
+        return try_bypass(x, a, out, false);
+    if (input_constant(x, a) && input_constant(x, b) && n->in[a].value[0] == n->in[b].value[0])
+        return try_bypass(x, a, out, false);
+    if (fac_const && fv == 1.0f)
+        return try_bypass(x, b, out, false);
+    return false;
+}
+
+static bool fold_node(flat *f, int node, sg_blender_mode mode)
+{
+    fold x = {f, node, mode};
+    sg_node *n = &f->t.nodes[node];
+    const sg_node_type *t = n->type;
+    const char *id = t->idname;
+    if (!t->kernel || (t->flags & (SG_NODE_READS_GEOMETRY | SG_NODE_SINK)))
         return false;
-    redirect_output(f, node, kr, l->from_node, l->from_socket);
-    return true;
+    bool textures = !strncmp(id, "ShaderNodeTex", 13);
+    bool never = textures || !strcmp(id, "ShaderNodeMapRange") || !strcmp(id, "ShaderNodeBump");
+    if (!never) {
+        bool all = true;
+        for (int k = 0; k < n->n_in && all; k++)
+            all = is_const_input(f, node, k);
+        if (all)
+            return fold_all_constant(&x);
+    }
+    if (!strcmp(id, "ShaderNodeMath"))
+        return fold_math(&x);
+    if (!strcmp(id, "ShaderNodeVectorMath"))
+        return fold_vector_math(&x);
+    if (!strcmp(id, "ShaderNodeMix"))
+        return fold_mix(&x);
+    if (!strcmp(id, "ShaderNodeMixRGB"))
+        return fold_mix_blend(&x, enum_name(n, "blend_type"), 0, 1, 2, 0, true,
+                              prop_of(n, "use_clamp") == 1);
+    if (!strcmp(id, "ShaderNodeMapping")) {
+        int vec = in_index(&x, "Vector"), loc = in_index(&x, "Location"),
+            rot = in_index(&x, "Rotation"), sc = in_index(&x, "Scale");
+        if (input_equals(&x, sc, 0.0f))
+            return make_value(&x, 0, 0.0f);
+        const char *vt = enum_name(n, "vector_type");
+        if (strcmp(vt, "NORMAL") && (input_equals(&x, loc, 0.0f) || !strcmp(vt, "VECTOR")) &&
+            input_equals(&x, rot, 0.0f) && input_equals(&x, sc, 1.0f))
+            return try_bypass(&x, vec, 0, false);
+        return false;
+    }
+    if (!strcmp(id, "ShaderNodeInvert")) {
+        if (input_constant(&x, 0) && n->in[0].value[0] == 0.0f)
+            return try_bypass(&x, 1, 0, false);
+        return false;
+    }
+    if (!strcmp(id, "ShaderNodeBump")) {
+        int h = in_index(&x, "Height"), nrm = in_index(&x, "Normal");
+        if (input_link(f, node, h) < 0 && input_link(f, node, nrm) >= 0)
+            return try_bypass(&x, nrm, 0, false);
+        return false;
+    }
+    return false;
 }
 
 /* Marks nodes that do not reach the Material Output dead. Returns true if any died. */
@@ -773,34 +999,78 @@ int sg_graph_node_count(const sg_graph *g)
     return count;
 }
 
-sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err)
+/* Flattens and folds g. With `sinks`, output-socket refs get a pseudo consumer each (a
+ * Material Output whose Displacement or Thickness reads the socket), so the folds apply
+ * to them as to any consumer; their resolved refs are written to `resolved`. */
+static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool extract,
+                                  const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
+                                  sg_socket_type *types, sg_error *err)
 {
-    sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
     flat f = {.err = err, .src = g};
     context *root = new_context(&f, &g->main, NULL, -1, "");
+    for (int k = 0; k < n_refs && root && !f.failed; k++) {
+        int node = sg_tree_find_node(&g->main, refs[k].node);
+        if (node < 0) {
+            sg_error_set(err, "no node named \"%s\"", refs[k].node);
+            f.failed = true;
+            break;
+        }
+        const sg_node *n = &g->main.nodes[node];
+        int out = sg_node_output_index(n, refs[k].socket);
+        int inp = sg_node_input_index(n, refs[k].socket);
+        if (out < 0 && inp < 0) {
+            sg_error_set(err, "node \"%s\" has no socket \"%s\"", n->name, refs[k].socket);
+            f.failed = true;
+            break;
+        }
+        if (out < 0) {
+            if (root->map[node] < 0) {
+                sg_error_set(err, "node \"%s\": input \"%s\" cannot be evaluated", n->name, refs[k].socket);
+                f.failed = true;
+                break;
+            }
+            resolved[k] = refs[k];
+            types[k] = n->in[inp].type;
+            continue;
+        }
+        if (n->out[out].type == SG_SOCKET_SHADER) {
+            sg_error_set(err, "node \"%s\": output \"%s\" is a shader and has no value", n->name,
+                         refs[k].socket);
+            f.failed = true;
+            break;
+        }
+        source src = resolve_out(&f, root, node, out);
+        char name[64];
+        snprintf(name, sizeof name, "\x01output %d", k);
+        int sink = add_typed_node(&f, "ShaderNodeOutputMaterial", name);
+        if (sink < 0)
+            break;
+        bool vec = is_vec_type(src.type);
+        int socket = sg_node_input_index(&f.t.nodes[sink], vec ? "Displacement" : "Thickness");
+        if (src.is_const)
+            sg_convert_constant(src.type, f.t.nodes[sink].in[socket].type, src.value,
+                                f.t.nodes[sink].in[socket].value);
+        else
+            add_link(&f, src.node, src.socket, sink, socket);
+        resolved[k].node = NULL; /* filled after compaction, when names are final */
+        resolved[k].socket = vec ? "Displacement" : "Thickness";
+        types[k] = src.type;
+    }
     free_context(root);
-    /* Material Output nodes other than the active one do not matter; keep them all:
-     * remove_dead keeps whatever reaches any of them. */
     for (int round = 0; !f.failed && round < 10000; round++) {
         bool changed = false;
-        for (int i = 0; i < f.t.n_nodes && !f.failed; i++) {
-            if (f.dead[i])
-                continue;
-            if (has_consumers(&f, i) && fold_node(&f, i, mode)) {
-                changed = true;
-                continue;
-            }
-            changed |= simplify_math(&f, i);
-            changed |= simplify_mix(&f, i);
-        }
+        for (int i = 0; i < f.t.n_nodes && !f.failed; i++)
+            if (!f.dead[i] && has_consumers(&f, i))
+                changed |= fold_node(&f, i, mode);
         changed |= merge_duplicates(&f);
-        changed |= remove_dead(&f);
+        if (extract)
+            changed |= remove_dead(&f);
         if (!changed)
             break;
     }
     if (!f.failed)
         compact(&f);
-    if (!f.failed)
+    if (!f.failed && extract)
         layout(&f);
     sg_graph *out = calloc(1, sizeof *out);
     if (f.failed || !out || !(out->name = dup_str(g->name)) || !(out->main.name = dup_str(g->name))) {
@@ -828,5 +1098,25 @@ sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error 
     out->main.links = f.t.links;
     out->main.n_links = f.t.n_links;
     free(f.dead);
+    for (int k = 0; k < n_refs; k++)
+        if (!resolved[k].node) {
+            char name[64];
+            snprintf(name, sizeof name, "\x01output %d", k);
+            int i = sg_tree_find_node(&out->main, name);
+            resolved[k].node = out->main.nodes[i].name;
+        }
     return out;
+}
+
+sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err)
+{
+    sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
+    return flatten_and_fold(g, mode, true, NULL, 0, NULL, NULL, err);
+}
+
+sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, const sg_socket_ref *refs,
+                              int n_refs, sg_socket_ref *resolved, sg_socket_type *types,
+                              sg_error *err)
+{
+    return flatten_and_fold(g, mode, false, refs, n_refs, resolved, types, err);
 }

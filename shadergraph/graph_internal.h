@@ -71,4 +71,12 @@ int sg_tree_input_link(const sg_tree *t, int node, int input);
 int sg_node_input_index(const sg_node *n, const char *identifier);
 int sg_node_output_index(const sg_node *n, const char *identifier);
 
+/* The graph Cycles would render (extract.c): groups inlined, reroutes and Value/RGB
+ * nodes gone, constant-folded with Cycles' rules for Blender `mode`. Each ref is
+ * resolved to a socket of the result (`resolved`, names pointing into the result) and
+ * its value type (`types`). Unreachable nodes are kept. Free with sg_graph_free. */
+sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, const sg_socket_ref *refs,
+                              int n_refs, sg_socket_ref *resolved, sg_socket_type *types,
+                              sg_error *err);
+
 #endif
