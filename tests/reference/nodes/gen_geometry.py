@@ -19,7 +19,14 @@ result depends on the image resolution: these references hold for 128 x 128 only
 is what the comparison evaluates (sg_plane_geometry(128, 128, ...)). Bump's coordinates
 are not snapped: snapping would put the offset points on the same pixel centre and make
 the height differences vanish. Bump differs between 3.4 and 4.3 (4.3 tilts further), so
-the same graphs are compared in both modes.
+the same graphs are compared in both modes: in bump_distance_large 93% of 3.4's normals
+sit at its limit z = 0.711 while 4.3's reach z = 0.109.
+
+The comparison's resolution limit for Bump: Blender's hit point is ~6e-8 (Generated
+units) off the exact pixel centre, which moves each height sample by gradient x 6e-8 and
+the normal by roughly Distance / dP times that (dP = 1/64 m at 128 x 128). Measured: a
+Noise of scale 40 at Distance 20 differs by up to 6e-4 on 0.1-0.3% of pixels, scale 5 at
+Distance 30 by up to 2e-4 on 0.02%; the cases here stay below 1e-4 everywhere.
 """
 import os
 import sys
@@ -190,6 +197,8 @@ def bump_cases():
         ("strength_zero", {"Strength": 0.0}, {}),
         ("distance_zero", {"Distance": 0.0}, {}),
         ("negative_distance", {"Distance": -0.7}, {}),
+        ("strength_over_one", {"Strength": 2.0, "Distance": 0.5}, {}),
+        ("strength_negative", {"Strength": -0.5, "Distance": 0.5}, {}),
     ]
     for name, inputs, props in variants:
         g = Graph()
