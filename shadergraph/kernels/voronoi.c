@@ -59,6 +59,7 @@ typedef struct voronoi_params {
     float randomness; /* clamped to [0, 1] */
     float max_distance;
     bool normalize;
+    bool want_color; /* the Color output is used (smooth F1 skips its hashes if not) */
 } voronoi_params;
 
 typedef struct voronoi_result {
@@ -236,7 +237,8 @@ static inline void split_cell(const vpoint *coord, int dims, vpoint *cell, vpoin
     }
 }
 
-/* The feature point of the cell at `offset` from `cell`, relative to `cell`. */
+/* The feature point of the cell at `offset` from `cell`, relative to `cell`; the cell's
+ * coordinates go to *neighbour. */
 static inline vpoint feature_point(const vpoint *cell, const vpoint *offset, float randomness,
                                    int dims, vpoint *neighbour)
 {
@@ -247,6 +249,167 @@ static inline vpoint feature_point(const vpoint *cell, const vpoint *offset, flo
     for (int c = 0; c < dims; c++)
         pt.v[c] = offset->v[c] + h.v[c] * randomness;
     return pt;
+}
+
+/* ---- the hashes of a whole scan window, eight cells at a time ------------------------
+ *
+ * Hashing dominates the cost (3 to 4 lookup3 hashes per cell, 27 to 625 cells), and the
+ * cells of a window are independent, so they are hashed in 8-lane vectors (GCC/Clang
+ * vector extensions). Lane arithmetic is the scalar arithmetic of kernel_util.h: integer
+ * operations, and an unsigned-to-float conversion that rounds once, as the scalar cast
+ * does; the results are the same bits. */
+typedef uint32_t u32x8 __attribute__((vector_size(32)));
+typedef float f32x8 __attribute__((vector_size(32)));
+
+/* Statement macros rather than functions: a function passing 32-byte vectors by value has
+ * no fixed ABI without AVX, which GCC points out; macros keep the code the same on every
+ * target. `out` receives the [0, 1] float of each lane's hash. */
+#define ROT_X8(x, k) (((x) << (k)) | ((x) >> (32 - (k))))
+#define FINAL_X8(a, b, c)                                                                 \
+    do {                                                                                  \
+        c ^= b; c -= ROT_X8(b, 14);                                                        \
+        a ^= c; a -= ROT_X8(c, 11);                                                        \
+        b ^= a; b -= ROT_X8(a, 25);                                                        \
+        c ^= b; c -= ROT_X8(b, 16);                                                        \
+        a ^= c; a -= ROT_X8(c, 4);                                                         \
+        b ^= a; b -= ROT_X8(a, 14);                                                        \
+        c ^= b; c -= ROT_X8(b, 24);                                                        \
+    } while (0)
+#define UNIT_X8(c) (__builtin_convertvector((c), f32x8) * (1.0f / (float)0xFFFFFFFFu))
+#define HASH_INIT_X8(words) ((u32x8){0} + (0xdeadbeefu + ((words) << 2) + 13u))
+#define HASH1_X8(out, kx)                                                                 \
+    do {                                                                                  \
+        u32x8 a_ = HASH_INIT_X8(1u), b_ = a_, c_ = a_;                                    \
+        a_ += (kx);                                                                       \
+        FINAL_X8(a_, b_, c_);                                                             \
+        (out) = UNIT_X8(c_);                                                              \
+    } while (0)
+#define HASH2_X8(out, kx, ky)                                                             \
+    do {                                                                                  \
+        u32x8 a_ = HASH_INIT_X8(2u), b_ = a_, c_ = a_;                                    \
+        b_ += (ky);                                                                       \
+        a_ += (kx);                                                                       \
+        FINAL_X8(a_, b_, c_);                                                             \
+        (out) = UNIT_X8(c_);                                                              \
+    } while (0)
+#define HASH3_X8(out, kx, ky, kz)                                                         \
+    do {                                                                                  \
+        u32x8 a_ = HASH_INIT_X8(3u), b_ = a_, c_ = a_;                                    \
+        c_ += (kz);                                                                       \
+        b_ += (ky);                                                                       \
+        a_ += (kx);                                                                       \
+        FINAL_X8(a_, b_, c_);                                                             \
+        (out) = UNIT_X8(c_);                                                              \
+    } while (0)
+#define HASH4_X8(out, kx, ky, kz, kw)                                                     \
+    do {                                                                                  \
+        u32x8 a_ = HASH_INIT_X8(4u), b_ = a_, c_ = a_;                                    \
+        a_ += (kx);                                                                       \
+        b_ += (ky);                                                                       \
+        c_ += (kz);                                                                       \
+        a_ -= c_; a_ ^= ROT_X8(c_, 4);  c_ += b_;                                          \
+        b_ -= a_; b_ ^= ROT_X8(a_, 6);  a_ += c_;                                          \
+        c_ -= b_; c_ ^= ROT_X8(b_, 8);  b_ += a_;                                          \
+        a_ -= c_; a_ ^= ROT_X8(c_, 16); c_ += b_;                                          \
+        b_ -= a_; b_ ^= ROT_X8(a_, 19); a_ += c_;                                          \
+        c_ -= b_; c_ ^= ROT_X8(b_, 4);  b_ += a_;                                          \
+        a_ += (kw);                                                                       \
+        FINAL_X8(a_, b_, c_);                                                             \
+        (out) = UNIT_X8(c_);                                                              \
+    } while (0)
+
+#define MAX_SCAN 625 /* 5^4: smooth F1 in 4D */
+
+/* Per cell of a scan window, in scan order (first coordinate fastest): its offset from
+ * the centre cell, its feature point relative to the centre cell (offset + jitter *
+ * randomness, as Cycles computes it) and, when asked for, its colour (cell_color). */
+typedef struct cell_table {
+    int n;
+    vpoint offset[MAX_SCAN];
+    vpoint point[MAX_SCAN];
+    float color[MAX_SCAN][3];
+} cell_table;
+
+static inline void cell_table_fill(cell_table *t, const vpoint *cell, int radius, int dims,
+                                   float randomness, bool with_color)
+{
+    const int n = scan_count(radius, dims);
+    t->n = n;
+    /* The cells' coordinates as hash keys, padded to whole vectors. */
+    uint32_t keys[4][MAX_SCAN + 8];
+    int o[4] = {-radius, -radius, -radius, -radius};
+    for (int idx = 0; idx < n; idx++) {
+        vpoint off = {{0.0f, 0.0f, 0.0f, 0.0f}};
+        for (int c = 0; c < dims; c++) {
+            off.v[c] = (float)o[c];
+            keys[c][idx] = float_bits(cell->v[c] + off.v[c]);
+        }
+        t->offset[idx] = off;
+        for (int c = 0; c < dims && ++o[c] > radius; c++)
+            o[c] = -radius;
+    }
+    for (int c = 0; c < 4; c++)
+        for (int idx = n; idx < n + 8; idx++)
+            keys[c][idx] = 0u;
+
+    const u32x8 one = (u32x8){0} + float_bits(1.0f), two = (u32x8){0} + float_bits(2.0f);
+    for (int s = 0; s < n; s += 8) {
+        u32x8 k[4] = {{0}, {0}, {0}, {0}};
+        for (int c = 0; c < dims; c++)
+            memcpy(&k[c], &keys[c][s], sizeof k[c]);
+        f32x8 j[4], col[3] = {{0}, {0}, {0}};
+        switch (dims) {
+        case 1:
+            HASH1_X8(j[0], k[0]);
+            j[1] = j[2] = j[3] = (f32x8){0};
+            col[0] = j[0];
+            if (with_color) {
+                HASH2_X8(col[1], k[0], one);
+                HASH2_X8(col[2], k[0], two);
+            }
+            break;
+        case 2:
+            HASH2_X8(j[0], k[0], k[1]);
+            HASH3_X8(j[1], k[0], k[1], one);
+            j[2] = j[3] = (f32x8){0};
+            col[0] = j[0];
+            col[1] = j[1];
+            if (with_color)
+                HASH3_X8(col[2], k[0], k[1], two);
+            break;
+        case 3:
+            HASH3_X8(j[0], k[0], k[1], k[2]);
+            HASH4_X8(j[1], k[0], k[1], k[2], one);
+            HASH4_X8(j[2], k[0], k[1], k[2], two);
+            j[3] = (f32x8){0};
+            col[0] = j[0];
+            col[1] = j[1];
+            col[2] = j[2];
+            break;
+        default:
+            HASH4_X8(j[0], k[0], k[1], k[2], k[3]);
+            HASH4_X8(j[1], k[3], k[0], k[1], k[2]);
+            HASH4_X8(j[2], k[2], k[3], k[0], k[1]);
+            HASH4_X8(j[3], k[1], k[2], k[3], k[0]);
+            col[0] = j[0];
+            if (with_color) {
+                HASH4_X8(col[1], k[2], k[0], k[3], k[1]);
+                HASH4_X8(col[2], k[3], k[2], k[1], k[0]);
+            }
+            break;
+        }
+        const int m = n - s < 8 ? n - s : 8;
+        for (int l = 0; l < m; l++) {
+            vpoint *pt = &t->point[s + l];
+            const vpoint *off = &t->offset[s + l];
+            *pt = (vpoint){{0.0f, 0.0f, 0.0f, 0.0f}};
+            for (int c = 0; c < dims; c++)
+                pt->v[c] = off->v[c] + j[c][l] * randomness;
+            if (with_color)
+                for (int c = 0; c < 3; c++)
+                    t->color[s + l][c] = col[c][l];
+        }
+    }
 }
 
 /* Cycles' voronoi_position(): 1D puts the coordinate in W, 3D sets W to 1. */
@@ -280,15 +443,17 @@ static inline float search_start(const voronoi_params *p) { return p->blender3 ?
 static voronoi_result voronoi_f1(const voronoi_params *p, const vpoint *coord)
 {
     const int dims = p->dims;
-    vpoint cell, local, neighbour;
+    vpoint cell, local, neighbour = {{0.0f, 0.0f, 0.0f, 0.0f}};
     split_cell(coord, dims, &cell, &local);
 
     float min_distance = search_start(p);
     vpoint target_offset = {{0.0f, 0.0f, 0.0f, 0.0f}}, target_point = target_offset;
+    cell_table table;
+    cell_table_fill(&table, &cell, 1, dims, p->randomness, false);
     const int n = scan_count(1, dims);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 1, dims);
-        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        const vpoint offset = table.offset[idx];
+        const vpoint pt = table.point[idx];
         float d = voronoi_distance(&pt, &local, p);
         if (d < min_distance) {
             target_offset = offset;
@@ -316,16 +481,17 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
 {
     const int dims = p->dims;
     const float smoothness = p->smoothness;
-    vpoint cell, local, neighbour;
+    vpoint cell, local;
     split_cell(coord, dims, &cell, &local);
 
     float smooth_distance = p->blender3 ? 8.0f : 0.0f;
     float smooth_color[3] = {0.0f, 0.0f, 0.0f};
     vpoint smooth_point = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    cell_table table;
+    cell_table_fill(&table, &cell, 2, dims, p->randomness, p->want_color);
     const int n = scan_count(2, dims);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 2, dims);
-        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        const vpoint pt = table.point[idx];
         float d = voronoi_distance(&pt, &local, p);
         float h = (idx == 0 && !p->blender3) ?
                       1.0f :
@@ -333,10 +499,9 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
         float correction = smoothness * h * (1.0f - h);
         smooth_distance = mixf(smooth_distance, d, h) - correction;
         correction /= 1.0f + 3.0f * smoothness;
-        float color[3];
-        cell_color(&neighbour, dims, color);
-        for (int c = 0; c < 3; c++)
-            smooth_color[c] = mixf(smooth_color[c], color[c], h) - correction;
+        if (p->want_color)
+            for (int c = 0; c < 3; c++)
+                smooth_color[c] = mixf(smooth_color[c], table.color[idx][c], h) - correction;
         for (int c = 0; c < dims; c++)
             smooth_point.v[c] = mixf(smooth_point.v[c], pt.v[c], h) - correction;
     }
@@ -355,16 +520,18 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
 static voronoi_result voronoi_f2(const voronoi_params *p, const vpoint *coord)
 {
     const int dims = p->dims;
-    vpoint cell, local, neighbour;
+    vpoint cell, local, neighbour = {{0.0f, 0.0f, 0.0f, 0.0f}};
     split_cell(coord, dims, &cell, &local);
 
     float distance_f1 = search_start(p), distance_f2 = search_start(p);
     const vpoint zero = {{0.0f, 0.0f, 0.0f, 0.0f}};
     vpoint offset_f1 = zero, point_f1 = zero, offset_f2 = zero, point_f2 = zero;
+    cell_table table;
+    cell_table_fill(&table, &cell, 1, dims, p->randomness, false);
     const int n = scan_count(1, dims);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 1, dims);
-        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        const vpoint offset = table.offset[idx];
+        const vpoint pt = table.point[idx];
         float d = voronoi_distance(&pt, &local, p);
         if (d < distance_f1) {
             distance_f2 = distance_f1;
@@ -414,17 +581,21 @@ static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coo
     const int dims = p->dims;
     if (dims == 1)
         return voronoi_distance_to_edge_1d(p, coord->v[0]);
-    vpoint cell, local, neighbour;
+    vpoint cell, local;
     split_cell(coord, dims, &cell, &local);
 
+    /* Both passes visit the same points: keep them from the first (3^4 at most). */
+    vpoint to_points[81];
+    cell_table table;
+    cell_table_fill(&table, &cell, 1, dims, p->randomness, false);
     const int n = scan_count(1, dims);
     vpoint to_closest = {{0.0f, 0.0f, 0.0f, 0.0f}};
     float min_distance = search_start(p);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 1, dims);
-        vpoint to_point = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        vpoint to_point = table.point[idx];
         for (int c = 0; c < dims; c++)
             to_point.v[c] -= local.v[c];
+        to_points[idx] = to_point;
         float d = dot_n(&to_point, &to_point, dims);
         if (d < min_distance) {
             min_distance = d;
@@ -434,10 +605,7 @@ static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coo
 
     min_distance = search_start(p);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 1, dims);
-        vpoint to_point = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
-        for (int c = 0; c < dims; c++)
-            to_point.v[c] -= local.v[c];
+        const vpoint to_point = to_points[idx];
         vpoint perpendicular = {{0.0f, 0.0f, 0.0f, 0.0f}};
         for (int c = 0; c < dims; c++)
             perpendicular.v[c] = to_point.v[c] - to_closest.v[c];
@@ -467,9 +635,11 @@ static float voronoi_n_sphere_radius(const voronoi_params *p, const vpoint *coor
     const vpoint zero = {{0.0f, 0.0f, 0.0f, 0.0f}};
     vpoint closest = zero, closest_offset = zero;
     float min_distance = search_start(p);
+    cell_table table;
+    cell_table_fill(&table, &cell, 1, dims, p->randomness, false);
     for (int idx = 0; idx < n; idx++) {
-        vpoint offset = scan_offset(idx, 1, dims);
-        vpoint pt = feature_point(&cell, &offset, p->randomness, dims, &neighbour);
+        const vpoint offset = table.offset[idx];
+        const vpoint pt = table.point[idx];
         float d = euclidean_distance(&pt, &local, dims);
         if (d < min_distance) {
             min_distance = d;
@@ -638,6 +808,7 @@ static inline void voronoi_batch(const sg_kernel_args *a, int dims)
     base.metric = a->prop[PROP_DISTANCE];
     base.blender3 = blender3;
     base.normalize = a->prop[PROP_NORMALIZE] != 0;
+    base.want_color = out[OUT_COLOR] != NULL;
 
     for (int i = 0; i < n; i++) {
         voronoi_params p = base;
