@@ -13,17 +13,22 @@ Where the Blenders are:
 - 3.4: `blender` on PATH (Debian bookworm).
 - 4.3: the Debian trixie chroot /srv/trixie: the scripts and graphs are copied under
   /srv/trixie/tmp, `chroot /srv/trixie blender` renders there, results are copied back.
-Each EXR carries the Blender version string in its header ("Note" attribute); the driver
-also checks that the Blender it ran is the version it was asked for.
+Each EXR carries the Blender version, the SHA-256 of the graph.json it was rendered from
+and the socket in its header ("Note" attribute); a reference whose graph or socket has
+changed since is stale and is rendered again. The driver also checks that the Blender
+it ran is the version it was asked for.
 
 Plain python3 (standard library only). Exit status 1 if any case failed; every failure is
 printed with the case and Blender's message.
 """
 
 import argparse
+import hashlib
 import json
 import os
+import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -59,6 +64,43 @@ def load_case(d):
         if k not in c:
             sys.exit("render_node_references: %s: missing %r" % (path, k))
     return c
+
+
+def exr_note(path):
+    """The "Note" string attribute of an EXR header ('' if none)."""
+    with open(path, "rb") as f:
+        b = f.read(65536)
+    p = 8
+    while p < len(b):
+        e = b.index(b"\0", p)
+        name = b[p:e].decode("latin-1")
+        if not name:
+            break
+        t = b.index(b"\0", e + 1)
+        typ = b[e + 1:t].decode("latin-1")
+        size = struct.unpack("<i", b[t + 1:t + 5])[0]
+        value = b[t + 5:t + 5 + size]
+        if name == "Note" and typ == "string":
+            return value.decode("utf-8", "replace")
+        p = t + 5 + size
+    return ""
+
+
+def stale_reason(case_dir, case, version):
+    """Why an existing reference no longer matches its case, or None. References made
+    before the header carried the graph's hash cannot be checked and count as current."""
+    path = os.path.join(case_dir, "blender-%s.exr" % version)
+    note = exr_note(path)
+    m = re.search(r"graph sha256 ([0-9a-f]{64}); socket (.*)$", note)
+    if not m:
+        return None
+    with open(os.path.join(case_dir, "graph.json"), "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    if m.group(1) != digest:
+        return "graph.json changed since it was rendered"
+    if m.group(2) != case["socket"]:
+        return "socket changed (%s -> %s)" % (m.group(2), case["socket"])
+    return None
 
 
 def blender_command(version, script, jobs):
@@ -165,8 +207,17 @@ def main():
     cases = [(d, load_case(d)) for d in find_cases(a.cases)]
     failures = []
     for v in versions:
-        todo = [(d, c) for d, c in cases if v in c["versions"] and
-                (a.force or a.check or not os.path.exists(os.path.join(d, "blender-%s.exr" % v)))]
+        todo = []
+        for d, c in cases:
+            if v not in c["versions"]:
+                continue
+            exists = os.path.exists(os.path.join(d, "blender-%s.exr" % v))
+            why = stale_reason(d, c, v) if exists else None
+            if why:
+                print("  %s: blender-%s.exr is stale (%s): rendering it again"
+                      % (os.path.basename(d), v, why))
+            if a.force or a.check or not exists or why:
+                todo.append((d, c))
         print("Blender %s: %d case(s) to %s" % (v, len(todo), "check" if a.check else "render"),
               flush=True)
         for i in range(0, len(todo), max(1, a.batch)):

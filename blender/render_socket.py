@@ -26,11 +26,13 @@ What Cycles writes, measured in 3.4 and 4.3 (see the project report / casekit ca
 - Negative values pass unchanged (emission is not clamped at 0).
 - Row 0 of the EXR is the top of the image (+y of the plane).
 
-The Blender version is written into the EXR header (the stamp "Note" field, header
-attribute "Note"), so every reference says what made it. Outputs are rendered to a
+The Blender version, the graph's SHA-256 and the socket are written into the EXR header
+(the stamp "Note" field, header attribute "Note"), so every reference says what made it
+and from what. Outputs are rendered to a
 temporary file and renamed.
 """
 
+import hashlib
 import json
 import os
 import sys
@@ -155,6 +157,12 @@ def wire_emission(mat, ref, source):
 
 def render_job(scene, plane, job, check_only=False):
     source = job["graph"]
+    with open(source, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    # The header says what made the image and from which graph, so a reference whose
+    # graph.json changed later is recognisably stale (render_node_references.py checks).
+    scene.render.stamp_note_text = "%s; graph sha256 %s; socket %s" % (
+        version_note(), digest, job["socket"])
     clear_data()
     data = im.load_json(source)
     warnings = []
