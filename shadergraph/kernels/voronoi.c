@@ -76,6 +76,13 @@ static inline float minf(float a, float b) { return (a < b) ? a : b; }
 static inline float maxf(float a, float b) { return (a > b) ? a : b; }
 static inline float clampf(float x, float lo, float hi) { return minf(maxf(x, lo), hi); }
 
+/* x / f for a component of a Cycles float<dims>: float2 and float4 divide by a scalar
+ * through its reciprocal, float3 (SSE) and float divide directly. */
+static inline float div_component(float x, float f, int dims)
+{
+    return (dims == 2 || dims == 4) ? x * (1.0f / f) : x / f;
+}
+
 static inline float smoothstepf(float edge0, float edge1, float x)
 {
     /* Cycles' smoothstep; note a NaN x falls through to the polynomial and stays NaN. */
@@ -615,7 +622,7 @@ static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coo
             vpoint midpoint = {{0.0f, 0.0f, 0.0f, 0.0f}}, normal = midpoint;
             for (int c = 0; c < dims; c++) {
                 midpoint.v[c] = (to_closest.v[c] + to_point.v[c]) / 2.0f;
-                normal.v[c] = perpendicular.v[c] / len;
+                normal.v[c] = div_component(perpendicular.v[c], len, dims);
             }
             min_distance = minf(min_distance, dot_n(&midpoint, &normal, dims));
         }
@@ -711,7 +718,8 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
             for (int c = 0; c < 3; c++)
                 out.color[c] += octave.color[c] * amplitude;
             for (int c = 0; c < 4; c++)
-                out.position.v[c] = mixf(out.position.v[c], octave.position.v[c] / scale, amplitude);
+                out.position.v[c] = mixf(out.position.v[c], octave.position.v[c] * (1.0f / scale),
+                                         amplitude);
             scale *= p->lacunarity;
             amplitude *= p->roughness;
         }
@@ -727,7 +735,7 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
                 for (int c = 0; c < 4; c++)
                     out.position.v[c] = mixf(
                         out.position.v[c],
-                        mixf(out.position.v[c], octave.position.v[c] / scale, amplitude),
+                        mixf(out.position.v[c], octave.position.v[c] * (1.0f / scale), amplitude),
                         remainder);
             }
         }
@@ -853,10 +861,12 @@ static inline void voronoi_batch(const sg_kernel_args *a, int dims)
             distance = r.distance;
             for (int c = 0; c < 3; c++)
                 color[c] = r.color[c];
-            /* safe_divide by the scale; 3.x divides the position it outputs (W in 1D,
-             * x and y in 2D), which gives the same numbers. */
+            /* safe_divide by the scale, of the float4 position in 4.x, of the
+             * dimension's own vector type in 3.x (which rounds differently). */
+            const int as_dims = blender3 ? dims : 4;
             for (int c = 0; c < 4; c++)
-                position.v[c] = scale != 0.0f ? r.position.v[c] / scale : 0.0f;
+                position.v[c] = scale != 0.0f ? div_component(r.position.v[c], scale, as_dims) :
+                                                0.0f;
         }
 
         if (out[OUT_DISTANCE])
