@@ -403,25 +403,27 @@ static void energy_compensation(float roughness, float mu, const float Fss[3], f
  * without its weight. */
 static void microfacet_albedo_4x(const lobe *l, float roughness, float mu, float alb[3])
 {
-    float E = microfacet_table_2d(microfacet_ggx_E, roughness, mu, 32, 32);
+    float y = sqrtf(fmaxf(mu, 0.0f));
+    float E = microfacet_table_2d(microfacet_alb4_E, roughness, y, 32, 32);
     if (l->fresnel == FRESNEL_F82_TINT) {
-        float S5 = microfacet_table_2d(microfacet_alb4_S5, roughness, mu, 32, 32);
-        float S6 = microfacet_table_2d(microfacet_alb4_S6, roughness, mu, 32, 32);
+        float S5 = microfacet_table_2d(microfacet_alb4_S5, roughness, y, 32, 32);
+        float S6 = microfacet_table_2d(microfacet_alb4_S6, roughness, y, 32, 32);
         for (int c = 0; c < 3; c++)
             alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S5 - l->b[c] * S6;
         return;
     }
     float z = sqrtf(fabsf((l->eta - 1.0f) / (l->eta + 1.0f)));
-    float S = microfacet_table_3d(microfacet_alb4_S, roughness, mu, z, 32, 32, 16);
+    float S = microfacet_table_3d(microfacet_alb4_S, roughness, y, z, 32, 32, 16);
     for (int c = 0; c < 3; c++)
         alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S;
 }
 
 static void microfacet_albedo_3x(const lobe *l, float roughness, float mu, float alb[3])
 {
-    float E = microfacet_table_2d(microfacet_alb3_E, roughness, mu, 32, 32);
+    float y = sqrtf(fmaxf(mu, 0.0f));
+    float E = microfacet_table_2d(microfacet_alb3_E, roughness, y, 32, 32);
     float z = sqrtf(fabsf((l->eta - 1.0f) / (l->eta + 1.0f)));
-    float S = microfacet_table_3d(microfacet_alb3_S, roughness, mu, z, 32, 32, 16);
+    float S = microfacet_table_3d(microfacet_alb3_S, roughness, y, z, 32, 32, 16);
     for (int c = 0; c < 3; c++)
         alb[c] = l->f0[c] * E + (1.0f - l->f0[c]) * S;
 }
@@ -461,7 +463,6 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
     float roughness = saturate(in->roughness);
     float level = fmaxf(in->specular_ior_level, 0.0f);
     float ior = fmaxf(in->ior, 1e-5f);
-    float alpha = saturate(in->alpha);
     float tint[3], base[3];
     for (int c = 0; c < 3; c++) {
         tint[c] = fmaxf(in->specular_tint[c], 0.0f);
@@ -470,9 +471,7 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
     vec3 N_spec = valid_specular_normal_4x(cl->Ng, cl->V, N);
     float mu = v3_dot(cl->V, N_spec);
     float estimate[N_LOBES] = {0};
-    /* The transparent share (1 - alpha) lets light pass straight through in Cycles; it is
-     * a delta transmission the renderer would have to trace, and is left out here. */
-    float weight = alpha;
+    float weight = 1.0f;  /* Alpha is the caller's: see bsdf_principled.h. */
 
     lobe *m = &cl->lobe[LOBE_METAL];
     if (metallic * weight > CLOSURE_WEIGHT_CUTOFF) {
@@ -570,7 +569,7 @@ static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
     const float specular_tint = 0.0f;
     float estimate[N_LOBES] = {0};
     N = valid_reflection_normal_3x(cl->Ng, cl->V, N);
-    float weight = saturate(in->alpha);
+    float weight = 1.0f;  /* Alpha is the caller's: see bsdf_principled.h. */
 
     float diffuse_weight = 1.0f - saturate(metallic);
     lobe *d = &cl->lobe[LOBE_DIFFUSE];
@@ -705,42 +704,86 @@ int principled_sample(const principled_inputs *in, int blender, const float wo[3
     return *pdf > 0.0f;
 }
 
-/* Directional albedo of one lobe by stratified sampling of that lobe (bumped normals). */
+/* One point of a lobe's sampling domain: f_cos / pdf (without the weight) for the
+ * direction u maps to; false where the lobe gives no direction there. */
+static bool lobe_ratio(const closures *cl, int i, float u1, float u2, float r[3])
+{
+    const lobe *l = &cl->lobe[i];
+    vec3 L;
+    float f[3], p;
+    r[0] = r[1] = r[2] = 0.0f;
+    if (i == LOBE_DIFFUSE) {
+        vec3 t, bt;
+        tangent_frame(l->N, &t, &bt);
+        float rad = sqrtf(u1), phi = 2.0f * PI_F * u2;
+        L = v3_add(v3_add(v3_scale(t, rad * cosf(phi)), v3_scale(bt, rad * sinf(phi))),
+                   v3_scale(l->N, safe_sqrt(1.0f - u1)));
+        diffuse_eval(cl, l, L, &f[0], &p);
+        f[1] = f[2] = f[0];
+    } else {
+        if (!microfacet_sample(cl, l, u1, u2, &L))
+            return false;
+        if (l->singular) {
+            lobe_fresnel(l, v3_dot(l->N, cl->V), f);
+            p = 1.0f;
+        } else {
+            microfacet_eval(cl, l, L, f, &p);
+        }
+    }
+    if (!(p > 0.0f))
+        return false;
+    for (int c = 0; c < 3; c++)
+        r[c] = f[c] / p;
+    return true;
+}
+
+/* Directional albedo of one lobe whose normal is not Ng (bump), by a midpoint rule over
+ * its sampling domain: the mean of f_cos / pdf. Two things would make a plain midpoint
+ * rule converge slowly (about 1 / SIDE): both samplers map u1 -> 1 to the rim of a disk
+ * where the integrand behaves like sqrt(1 - u1), which the substitution
+ * u1 = 1 - (1 - t)^2 (weight 2 (1 - t)) makes smooth; and the integrand jumps to 0 where
+ * the sampled direction falls below Ng, so cells on that edge (where a neighbour differs
+ * in validity; u2 is periodic) are refined SUB x SUB. */
 static void lobe_albedo_quadrature(const closures *cl, int i, float alb[3])
 {
-    enum { SIDE = 32 };
-    const lobe *l = &cl->lobe[i];
+    enum { SIDE = 16, SUB = 4 };
+    float val[SIDE][SIDE][3];
+    bool ok[SIDE][SIDE];
+    for (int a = 0; a < SIDE; a++) {
+        float t = (a + 0.5f) / SIDE, w = 2.0f * (1.0f - t);
+        for (int b = 0; b < SIDE; b++) {
+            ok[a][b] = lobe_ratio(cl, i, 1.0f - sqr(1.0f - t), (b + 0.5f) / SIDE, val[a][b]);
+            for (int c = 0; c < 3; c++)
+                val[a][b][c] *= w;
+        }
+    }
     double sum[3] = {0, 0, 0};
     for (int a = 0; a < SIDE; a++) {
         for (int b = 0; b < SIDE; b++) {
-            float u1 = (a + 0.5f) / SIDE, u2 = (b + 0.5f) / SIDE;
-            vec3 L;
-            float f[3], p;
-            if (i == LOBE_DIFFUSE) {
-                vec3 t, bt;
-                tangent_frame(l->N, &t, &bt);
-                float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
-                L = v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(bt, r * sinf(phi))),
-                           v3_scale(l->N, safe_sqrt(1.0f - u1)));
-                diffuse_eval(cl, l, L, &f[0], &p);
-                f[1] = f[2] = f[0];
-            } else {
-                if (!microfacet_sample(cl, l, u1, u2, &L))
-                    continue;
-                if (l->singular) {
-                    lobe_fresnel(l, v3_dot(l->N, cl->V), f);
-                    p = 1.0f;
-                } else {
-                    microfacet_eval(cl, l, L, f, &p);
+            bool edge = ok[a][(b + 1) % SIDE] != ok[a][b] ||
+                        ok[a][(b + SIDE - 1) % SIDE] != ok[a][b] ||
+                        (a > 0 && ok[a - 1][b] != ok[a][b]) ||
+                        (a + 1 < SIDE && ok[a + 1][b] != ok[a][b]);
+            if (!edge) {
+                for (int c = 0; c < 3; c++)
+                    sum[c] += val[a][b][c];
+                continue;
+            }
+            double cell[3] = {0, 0, 0};
+            for (int p = 0; p < SUB; p++) {
+                for (int q = 0; q < SUB; q++) {
+                    float r[3], t = (a + (p + 0.5f) / SUB) / SIDE, w = 2.0f * (1.0f - t);
+                    lobe_ratio(cl, i, 1.0f - sqr(1.0f - t), (b + (q + 0.5f) / SUB) / SIDE, r);
+                    for (int c = 0; c < 3; c++)
+                        cell[c] += w * r[c];
                 }
             }
-            if (p > 0.0f)
-                for (int c = 0; c < 3; c++)
-                    sum[c] += f[c] / p;
+            for (int c = 0; c < 3; c++)
+                sum[c] += cell[c] / (SUB * SUB);
         }
     }
     for (int c = 0; c < 3; c++)
-        alb[c] = (float)(sum[c] / (SIDE * SIDE)) * l->weight[c];
+        alb[c] = (float)(sum[c] / (SIDE * SIDE)) * cl->lobe[i].weight[c];
 }
 
 void principled_albedo(const principled_inputs *in, int blender, const float wo[3],

@@ -15,6 +15,17 @@
  * BSDF * |cos(wi, N)| per RGB channel; pdf is the solid-angle density with
  * which principled_sample() would produce wi. No hidden state: every function
  * is safe to call from any thread.
+ *
+ * Alpha is NOT applied here: these functions give the opaque part of the surface, and
+ * the caller mixes it with the transparent pass-through, L = alpha L_bsdf +
+ * (1 - alpha) L_behind, as Cycles' transparent closure of weight 1 - alpha does (alpha
+ * scales every closure weight linearly, so factoring it out is exact).
+ *
+ * Ng must face wo (flip it for back faces, as Cycles does); the geometry is taken as
+ * flat (Cycles' smooth normal is Ng). Directions below Ng get nothing. Mirror-like lobes
+ * (roughness below ~0.004 in 4.x, ~0.018 in 3.x) are deltas: eval() leaves them out and
+ * sample() returns them with f_cos and pdf both scaled by 1e6 (Cycles' convention, so
+ * f_cos / pdf is right and MIS gives them full weight).
  */
 #ifndef IMSYNTH_RENDER_BSDF_PRINCIPLED_H
 #define IMSYNTH_RENDER_BSDF_PRINCIPLED_H
@@ -41,7 +52,11 @@ int principled_sample(const principled_inputs *in, int blender, const float wo[3
                       const float Ng[3], const float u[3], float wi[3], float f_cos[3],
                       float *pdf);
 
-/* Directional albedo: the integral of f_cos over all wi for this wo. */
+/* Directional albedo: the integral of f_cos over all wi for this wo. Where the shading
+ * normal is Ng (no bump) it comes from tables (~1 us, within ~0.1% of the integral);
+ * with a bumped normal the lobes are cut by the geometric surface and it is computed by
+ * quadrature (~0.3 ms, within ~0.2%): a renderer with many bumped shading points may
+ * prefer to estimate that part with its BSDF samples. */
 void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
                        const float Ng[3], float albedo[3]);
 

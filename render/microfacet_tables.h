@@ -16,7 +16,8 @@
 extern const float microfacet_ggx_E[32 * 32];
 extern const float microfacet_ggx_Eavg[32];
 extern const float microfacet_ggx_gen_schlick_ior_s[16 * 16 * 16];
-/* Directional-albedo integrals for principled_albedo() (same axes). */
+/* Directional-albedo integrals for principled_albedo(): x = roughness, y = sqrt(mu). */
+extern const float microfacet_alb4_E[32 * 32];
 extern const float microfacet_alb4_S[32 * 32 * 16];
 extern const float microfacet_alb4_S5[32 * 32];
 extern const float microfacet_alb4_S6[32 * 32];
