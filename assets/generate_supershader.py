@@ -319,7 +319,10 @@ def noise_module():
         g.link(scale, "Result", n, "Scale")
         g.link(detail, "Result", n, "Detail")
         g.link(rough, "Result", n, "Roughness")
-        g.link(dist, "Result", n, "Distortion")
+        # Blender 3.x builds the multifractal types as Musgrave nodes, which have no
+        # Distortion: leaving it at 0 keeps every extracted sub-shader buildable there.
+        if ntype == "FBM":
+            g.link(dist, "Result", n, "Distortion")
         return n
 
     def voronoi(name, feature):
@@ -495,7 +498,8 @@ def noise_params(letter):
         ("Noise %s Detail" % letter, "Noise %s" % letter, "octaves", "Detail 0..8"),
         ("Noise %s Roughness" % letter, "Noise %s" % letter, "octave falloff", "Roughness 0.35..0.75"),
         ("Noise %s Distortion" % letter, "Noise %s" % letter,
-         "noise distortion / cell jitter", "Distortion 0..1.5; cell Randomness 1..0.5"),
+         "noise distortion / cell jitter",
+         "Distortion 0..1.5 (fBM patterns); cell Randomness 1..0.5"),
     ]
 
 
@@ -782,9 +786,10 @@ a fixed fBM.
 
 **Blender.** The JSON builds in Blender 4.3 (`blender/import_material.py`, checked).
 Blender 3.4 cannot build the super-shader itself: its Musgrave node (which the 4.x
-Ridged / Hybrid / Hetero noise types become) takes no Distortion and the importer cannot
-translate a linked Detail or Roughness. A sub-shader extracted for a parameter set has
-those inputs constant and is the thing to open in 3.4.
+Ridged / Hybrid / Hetero noise types become) computes Detail and Dimension from
+constants, and the importer cannot translate a linked Detail or Roughness. A sub-shader
+extracted for a parameter set has those inputs constant (and Distortion, which Musgrave
+lacks, is never used by those types here), so sub-shaders are the thing to open in 3.4.
 
 **Checked** (when this design was committed): our evaluator and Blender 4.3
 (`blender/render_socket.py`, point-sampled through Emission) agree on frames 3, 11, 42
