@@ -54,13 +54,27 @@ static float stratum(int k, int n, float r)
     return fminf(((float)k + r) / (float)n, 0x1.fffffep-1f);
 }
 
-/* Stratum of sub-sample j for dimension pair `salt`: a permutation per shading point. */
-static int permuted(int j, int n, const shade_setup *s, uint32_t pixel, uint32_t sample,
-                    uint32_t salt)
+/* A pixel's fast-mode sub-samples, all spp x n of them, share one stratification of each
+ * 2D sampling domain (light, BSDF): sub-sample g = sample * n + j gets cell
+ * permute(g) of a jittered m x m grid when spp x n = m^2, else a Latin hypercube
+ * (independent permutations per dimension). Permutations are random per pixel, so every
+ * sub-sample is marginally uniform over [0,1)^2 whichever shading point it belongs to:
+ * the estimate stays unbiased although shading points differ, and the pixel's samples
+ * cover the domain evenly - which is what tames small-light highlights on glossy
+ * surfaces (a hit-or-miss integrand). */
+static void stratified_2d(const shade_setup *s, uint32_t pixel, uint32_t g, uint32_t total,
+                          uint32_t salt, float r1, float r2, float out[2])
 {
-    uint64_t key = s->seed ^ ((uint64_t)pixel << 32) ^ ((uint64_t)sample << 8) ^ salt;
-    key = key * 0x9e3779b97f4a7c15ull + pixel;
-    return (int)render_permute((uint32_t)j, (uint32_t)n, key);
+    uint64_t key = (s->seed * 0x9e3779b97f4a7c15ull) ^ ((uint64_t)pixel << 20) ^ salt;
+    uint32_t m = (uint32_t)(sqrt((double)total) + 0.5);
+    if (m * m == total) {
+        uint32_t c = render_permute(g, total, key);
+        out[0] = stratum((int)(c % m), (int)m, r1);
+        out[1] = stratum((int)(c / m), (int)m, r2);
+    } else {
+        out[0] = stratum((int)render_permute(g, total, key), (int)total, r1);
+        out[1] = stratum((int)render_permute(g, total, key ^ 0x5bd1e995u), (int)total, r2);
+    }
 }
 
 /* Light sampling: Le f_cos / pdf_light, MIS-weighted against BSDF sampling. */
@@ -93,15 +107,19 @@ static void bsdf_estimate(const shade_setup *s, const shading_geometry *g,
     float wi[3], f[3], pdf;
     if (!principled_sample(in, s->blender, g->I, g->Ng, u, wi, f, &pdf) || pdf <= 0.0f)
         return;
-    if (render_occluded(s->scene, g->P, g->Ng, wi, INFINITY)) {
+    float t = INFINITY, pdf_light = 0.0f;
+    int hits_light = s->light && point_light_intersect(s->light, g->P, wi, &t, &pdf_light);
+    /* Without the world (fast mode) only a ray that finds the light matters, and only
+     * geometry in front of the light can block it. */
+    float tmax = with_world ? INFINITY : t * 0.9999f;
+    if ((with_world || hits_light) && render_occluded(s->scene, g->P, g->Ng, wi, tmax)) {
         cnt->indirect_hits++;
         return;
     }
     if (with_world)
         for (int k = 0; k < 3; k++)
             L[k] += s->scene->world[k] * f[k] / pdf;
-    float t, pdf_light;
-    if (s->light && point_light_intersect(s->light, g->P, wi, &t, &pdf_light)) {
+    if (hits_light) {
         float w = power_heuristic(pdf, pdf_light) / pdf;
         for (int k = 0; k < 3; k++)
             L[k] += s->light->radiance[k] * f[k] * w;
@@ -132,18 +150,17 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
     int n = s->light_samples > 0 ? s->light_samples : 1;
     float acc[3] = {0, 0, 0};
     for (int j = 0; j < n; j++) {
-        /* Sub-sample j of this shading point: its own random numbers, strata chosen by
-         * permutations so that (u, v) pairs form a Latin hypercube. */
-        uint32_t sub = sample * 64u + (uint32_t)j;
-        float lu = stratum(j, n, render_random(s->seed, pixel, sub, DIM_LIGHT_U));
-        float lv = stratum(permuted(j, n, s, pixel, sample, 1), n,
-                           render_random(s->seed, pixel, sub, DIM_LIGHT_V));
-        light_estimate(s, g, in, lu, lv, acc, cnt);
-        float bu[3] = {stratum(permuted(j, n, s, pixel, sample, 2), n,
-                               render_random(s->seed, pixel, sub, DIM_BSDF_U)),
-                       stratum(permuted(j, n, s, pixel, sample, 3), n,
-                               render_random(s->seed, pixel, sub, DIM_BSDF_V)),
-                       render_random(s->seed, pixel, sub, DIM_BSDF_W)};
+        uint32_t sub = sample * 64u + (uint32_t)j; /* n <= 64 */
+        uint32_t gi = sample * (uint32_t)n + (uint32_t)j, total = (uint32_t)(s->spp * n);
+        float lu[2], bu2[2];
+        stratified_2d(s, pixel, gi, total, 1, render_random(s->seed, pixel, sub, DIM_LIGHT_U),
+                      render_random(s->seed, pixel, sub, DIM_LIGHT_V), lu);
+        light_estimate(s, g, in, lu[0], lu[1], acc, cnt);
+        stratified_2d(s, pixel, gi, total, 2, render_random(s->seed, pixel, sub, DIM_BSDF_U),
+                      render_random(s->seed, pixel, sub, DIM_BSDF_V), bu2);
+        float bw = stratum((int)render_permute(gi, total, s->seed ^ ((uint64_t)pixel << 24) ^ 3u),
+                           (int)total, render_random(s->seed, pixel, sub, DIM_BSDF_W));
+        float bu[3] = {bu2[0], bu2[1], bw};
         bsdf_estimate(s, g, in, bu, 0, acc, cnt);
     }
     for (int k = 0; k < 3; k++)

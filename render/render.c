@@ -222,10 +222,17 @@ static void render_tile(worker *w, int tile)
                 float fu = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_X);
                 float fv = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_Y);
                 if (o->mode == RENDER_FAST) {
-                    uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + pixel;
-                    uint32_t sy = render_permute((uint32_t)s, (uint32_t)spp, key);
-                    fu = fminf(((float)s + fu) / (float)spp, 0x1.fffffep-1f);
-                    fv = fminf(((float)sy + fv) / (float)spp, 0x1.fffffep-1f);
+                    /* Jittered grid when spp is a square, else a Latin hypercube. */
+                    int m = (int)(sqrt((double)spp) + 0.5);
+                    if (m * m == spp) {
+                        fu = fminf(((float)(s % m) + fu) / (float)m, 0x1.fffffep-1f);
+                        fv = fminf(((float)(s / m) + fv) / (float)m, 0x1.fffffep-1f);
+                    } else {
+                        uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + pixel;
+                        uint32_t sy = render_permute((uint32_t)s, (uint32_t)spp, key);
+                        fu = fminf(((float)s + fu) / (float)spp, 0x1.fffffep-1f);
+                        fv = fminf(((float)sy + fv) / (float)spp, 0x1.fffffep-1f);
+                    }
                 }
                 float rx = (float)px + 0.5f + pixel_filter_sample(&job->filter, fu);
                 float ry = (float)py + 0.5f + pixel_filter_sample(&job->filter, fv);
@@ -329,6 +336,7 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     job->setup.blender = o->blender;
     job->setup.mode = o->mode;
     job->setup.light_samples = o->light_samples;
+    job->setup.spp = o->spp;
     job->setup.seed = o->seed;
     if (s->n_lights > 0) {
         job->light = s->lights[0];

@@ -167,6 +167,7 @@ typedef struct shade_setup {
     int blender;
     render_mode mode;
     int light_samples; /* fast mode */
+    int spp;           /* fast mode: shading points per pixel (stratification) */
     uint64_t seed;
 } shade_setup;
 
