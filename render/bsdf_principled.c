@@ -760,10 +760,12 @@ static void lobe_albedo_quadrature(const closures *cl, int i, float alb[3])
     double sum[3] = {0, 0, 0};
     for (int a = 0; a < SIDE; a++) {
         for (int b = 0; b < SIDE; b++) {
-            bool edge = ok[a][(b + 1) % SIDE] != ok[a][b] ||
+            /* The diffuse lobe fades to 0 at Ng's horizon (the bump shadowing term), so
+             * only the microfacet lobes have an edge to refine. */
+            bool edge = i != LOBE_DIFFUSE && (ok[a][(b + 1) % SIDE] != ok[a][b] ||
                         ok[a][(b + SIDE - 1) % SIDE] != ok[a][b] ||
                         (a > 0 && ok[a - 1][b] != ok[a][b]) ||
-                        (a + 1 < SIDE && ok[a + 1][b] != ok[a][b]);
+                        (a + 1 < SIDE && ok[a + 1][b] != ok[a][b]));
             if (!edge) {
                 for (int c = 0; c < 3; c++)
                     sum[c] += val[a][b][c];
