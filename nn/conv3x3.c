@@ -81,11 +81,12 @@ static void winograd_tiles(const conv_layer *L, int *th, int *tw)
     *tw = (L->W + 1) / 2;
 }
 
-/* Winograd chunks are runs of tile rows counted across the batch (a chunk may hold the
- * end of one image and the start of the next): every column of the products is summed
- * in the same order whatever else shares its chunk (gemm_block, AMX tiles), so an image's
- * result does not depend on the batch. im2col chunks stay inside one image, because the
- * sgemm they call gives no such promise. */
+/* Chunks are runs of tile rows (Winograd) or pixels (im2col) counted across the batch, so
+ * a chunk may hold the end of one image and the start of the next, when our own kernels
+ * do the products: each of their output columns is summed in the same order whatever else
+ * shares its chunk (gemm_block, AMX tiles), so an image's result does not depend on the
+ * batch. When the sgemm fallback runs (no AVX-512, or K not a multiple of 8), which makes
+ * no such promise, chunks stay inside one image. */
 static size_t units_per_image(const conv_layer *L)
 {
     int th, tw;
@@ -93,11 +94,22 @@ static size_t units_per_image(const conv_layer *L)
     return L->winograd ? (size_t)th : (size_t)L->H * L->W;
 }
 
+static int chunks_span_images(const conv_layer *L)
+{
+#ifdef __AVX512F__
+    return L->K % 8 == 0;
+#else
+    (void)L;
+    return 0;
+#endif
+}
+
 size_t conv_chunk_count(const conv_layer *L)
 {
-    if (L->winograd)
-        return ((size_t)L->N * units_per_image(L) + L->chunk - 1) / L->chunk;
-    return (size_t)L->N * ((units_per_image(L) + L->chunk - 1) / L->chunk);
+    size_t units = units_per_image(L);
+    if (chunks_span_images(L))
+        return ((size_t)L->N * units + L->chunk - 1) / L->chunk;
+    return (size_t)L->N * ((units + L->chunk - 1) / L->chunk);
 }
 
 int conv_chunk_size(int winograd, int C, int K, int W, size_t budget)
@@ -553,53 +565,64 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     const size_t plane = (size_t)H * W;
-    const size_t n = p0 / plane, first = p0 % plane; /* chunks never span images */
-    float *col = scratch;                 // (9C, T)
+    const int n0 = (int)(p0 / plane), y0 = (int)(p0 % plane / W), x0 = (int)(p0 % W);
+    float *col = scratch;                   // (9C, T)
     float *M = scratch + 9 * (size_t)C * T; // (K, T)
-    const float *img = L->in + n * C * plane;
     for (int c = 0; c < C; c++)
         for (int r = 0; r < 9; r++) {
             int dy = r / 3 - 1, dx = r % 3 - 1;
             float *dst = col + ((size_t)c * 9 + r) * T;
-            const float *x = img + (size_t)c * plane;
-            int y = (int)(first / W), xx = (int)(first % W);
+            int n = n0, y = y0, x = x0;
             for (int t = 0; t < T; t++) {
-                int sy = y + dy, sx = xx + dx;
-                dst[t] = sy >= 0 && sy < H && sx >= 0 && sx < W ? x[(size_t)sy * W + sx] : 0.0f;
-                if (++xx == W) {
-                    xx = 0;
-                    y++;
+                int sy = y + dy, sx = x + dx;
+                dst[t] = sy >= 0 && sy < H && sx >= 0 && sx < W
+                             ? L->in[((size_t)n * C + c) * plane + (size_t)sy * W + sx]
+                             : 0.0f;
+                if (++x == W) {
+                    x = 0;
+                    if (++y == H) {
+                        y = 0;
+                        n++;
+                    }
                 }
             }
         }
-    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, T, 9 * C, 1.0f, L->weight, 9 * C,
-                col, T, 0.0f, M, T);
+    gemm_kct(M, L->weight, col, K, 9 * C, T);
     for (int k = 0; k < K; k++) {
-        float *o = L->out + (n * K + k) * plane + first;
         const float *m = M + (size_t)k * T;
         const float b = L->bias[k];
-        if (L->relu)
-            for (int t = 0; t < T; t++) {
-                float v = m[t] + b;
-                o[t] = v > 0.0f ? v : 0.0f;
+        size_t g = p0;
+        for (int t = 0; t < T;) {
+            /* One run of pixels within an image. */
+            size_t n = g / plane, p = g % plane;
+            int run = (int)(plane - p < (size_t)(T - t) ? plane - p : (size_t)(T - t));
+            float *o = L->out + (n * K + k) * plane + p;
+            for (int i = 0; i < run; i++) {
+                float v = m[t + i] + b;
+                o[i] = L->relu && !(v > 0.0f) ? 0.0f : v;
             }
-        else
-            for (int t = 0; t < T; t++)
-                o[t] = m[t] + b;
+            t += run;
+            g += (size_t)run;
+        }
     }
 }
 
 void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch)
 {
-    size_t units = units_per_image(L);
-    if (L->winograd) {
-        size_t total = (size_t)L->N * units, begin = chunk * L->chunk;
-        int count = (int)(total - begin < (size_t)L->chunk ? total - begin : (size_t)L->chunk);
-        winograd_chunk(L, begin, count, scratch);
-        return;
+    size_t units = units_per_image(L), begin;
+    int count;
+    if (chunks_span_images(L)) {
+        size_t total = (size_t)L->N * units;
+        begin = chunk * L->chunk;
+        count = (int)(total - begin < (size_t)L->chunk ? total - begin : (size_t)L->chunk);
+    } else {
+        size_t per_image = (units + L->chunk - 1) / L->chunk;
+        size_t n = chunk / per_image, first = (chunk % per_image) * L->chunk;
+        count = (int)(units - first < (size_t)L->chunk ? units - first : (size_t)L->chunk);
+        begin = n * units + first;
     }
-    size_t per_image = (units + L->chunk - 1) / L->chunk;
-    size_t n = chunk / per_image, begin = (chunk % per_image) * L->chunk;
-    int count = (int)(units - begin < (size_t)L->chunk ? units - begin : (size_t)L->chunk);
-    im2col_chunk(L, n * units + begin, count, scratch);
+    if (L->winograd)
+        winograd_chunk(L, begin, count, scratch);
+    else
+        im2col_chunk(L, begin, count, scratch);
 }

@@ -88,8 +88,9 @@ static void test_winograd_shapes(void **state)
 
 static void test_im2col_shapes(void **state)
 {
-    check_conv(2, 3, 16, 9, 13, 0, 1 << 20);
+    check_conv(2, 3, 16, 9, 13, 0, 1 << 20); /* chunks span both images */
     check_conv(2, 5, 8, 2, 2, 0, 1);
+    check_conv(2, 3, 12, 9, 13, 0, 1 << 12); /* K not a multiple of 8: sgemm, per image */
 }
 
 static void test_reference_conv_matches_definition(void **state)
