@@ -623,11 +623,28 @@ static inline lane_f lane_grad2(lane_u hash, lane_f x, lane_f y)
 
 static inline lane_f lane_grad3(lane_u hash, lane_f x, lane_f y, lane_f z)
 {
+#if NOISE_LANES == 16
+    /* The same selections with AVX-512 mask registers: a compare and a blend each, where
+     * the generic form needs the mask widened into a vector first. */
+    const __m512i h = _mm512_and_epi32((__m512i)hash, _mm512_set1_epi32(15));
+    const __m512 sign = _mm512_castsi512_ps(_mm512_set1_epi32((int)0x80000000u));
+    __m512 u = _mm512_mask_blend_ps(_mm512_cmplt_epu32_mask(h, _mm512_set1_epi32(8)),
+                                    (__m512)y, (__m512)x);
+    /* h == 12 or h == 14 */
+    __mmask16 x_for_v = _mm512_cmpeq_epi32_mask(_mm512_and_epi32(h, _mm512_set1_epi32(13)),
+                                                 _mm512_set1_epi32(12));
+    __m512 v = _mm512_mask_blend_ps(x_for_v, (__m512)z, (__m512)x);
+    v = _mm512_mask_blend_ps(_mm512_cmplt_epu32_mask(h, _mm512_set1_epi32(4)), v, (__m512)y);
+    u = _mm512_mask_xor_ps(u, _mm512_test_epi32_mask(h, _mm512_set1_epi32(1)), u, sign);
+    v = _mm512_mask_xor_ps(v, _mm512_test_epi32_mask(h, _mm512_set1_epi32(2)), v, sign);
+    return (lane_f)u + (lane_f)v;
+#else
     lane_u h = hash & 15u;
     lane_f u = lane_select((lane_u)(h < 8u), x, y);
     lane_f vt = lane_select((lane_u)((h == 12u) | (h == 14u)), x, z);
     lane_f v = lane_select((lane_u)(h < 4u), y, vt);
     return (lane_f)((lane_u)u ^ ((h & 1u) << 31)) + (lane_f)((lane_u)v ^ ((h & 2u) << 30));
+#endif
 }
 
 static inline lane_f lane_grad4(lane_u hash, lane_f x, lane_f y, lane_f z, lane_f w)
