@@ -106,10 +106,10 @@ static int chunks_span_images(const conv_layer *L)
 
 size_t conv_chunk_count(const conv_layer *L)
 {
-    size_t units = units_per_image(L);
+    size_t units = units_per_image(L), kblocks = L->kblocks > 1 ? (size_t)L->kblocks : 1;
     if (chunks_span_images(L))
-        return ((size_t)L->N * units + L->chunk - 1) / L->chunk;
-    return (size_t)L->N * ((units + L->chunk - 1) / L->chunk);
+        return kblocks * (((size_t)L->N * units + L->chunk - 1) / L->chunk);
+    return kblocks * (size_t)L->N * ((units + L->chunk - 1) / L->chunk);
 }
 
 int conv_chunk_size(int winograd, int C, int K, int W, size_t budget)
@@ -496,7 +496,8 @@ int conv_enable_amx(void)
 
 /* Columns of a chunk's V and M are padded to Tp, a multiple of 16, so every kernel works
  * on whole vectors and tiles; the padding columns are zeroed in V and never read in M. */
-static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, float *scratch)
+static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, int k0, int k1,
+                           float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     int th, tw;
@@ -524,33 +525,35 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
         for (size_t i = 0; i < 16 * (size_t)C; i++)
             memset(V + i * Tp + T, 0, (Tp - T) * sizeof(float));
 
+    /* Output channels k0..k1 only: rows k0..k1 of each U[xi] and M[xi]. */
+    const int Ks = k1 - k0;
 #ifdef HAVE_AMX
-    if (L->Ub && L->amx && K % 32 == 0 && C % 32 == 0) {
+    if (L->Ub && L->amx && Ks % 32 == 0 && C % 32 == 0) {
         amx_configure();
         for (int xi = 0; xi < 16; xi++) {
             float *v = V + (size_t)xi * C * Tp;
             pack_bf16_pairs(v, C, (int)Tp);
-            gemm_amx(M + (size_t)xi * K * Tp, L->Ub + (size_t)xi * K * (C / 2),
-                     (const uint32_t *)v, K, C, (int)Tp);
+            gemm_amx(M + ((size_t)xi * K + k0) * Tp, L->Ub + ((size_t)xi * K + k0) * (C / 2),
+                     (const uint32_t *)v, Ks, C, (int)Tp);
         }
         _tile_release();
     } else
 #endif
 #if defined(__AVX512F__) && defined(__AVX512BF16__)
-    if (L->Ub && K % 8 == 0 && C % 2 == 0) {
+    if (L->Ub && Ks % 8 == 0 && C % 2 == 0) {
         for (int xi = 0; xi < 16; xi++)
-            gemm_kct_bf16(M + (size_t)xi * K * Tp, L->Ub + (size_t)xi * K * (C / 2),
-                          V + (size_t)xi * C * Tp, K, C, (int)Tp);
+            gemm_kct_bf16(M + ((size_t)xi * K + k0) * Tp, L->Ub + ((size_t)xi * K + k0) * (C / 2),
+                          V + (size_t)xi * C * Tp, Ks, C, (int)Tp);
     } else
 #endif
         for (int xi = 0; xi < 16; xi++)
-            gemm_kct(M + (size_t)xi * K * Tp, L->U + (size_t)xi * K * C,
-                     V + (size_t)xi * C * Tp, K, C, (int)Tp);
+            gemm_kct(M + ((size_t)xi * K + k0) * Tp, L->U + ((size_t)xi * K + k0) * C,
+                     V + (size_t)xi * C * Tp, Ks, C, (int)Tp);
 
     for (int q = 0; q < rows_in_chunk; q++) {
         size_t r = row0 + (size_t)q;
         int n = (int)(r / th), ty = (int)(r % th);
-        for (int k = 0; k < K; k++) {
+        for (int k = k0; k < k1; k++) {
             float *o = L->out + ((size_t)n * K + k) * plane + (size_t)(2 * ty) * W;
             output_transform_row(o, 2 * ty + 1 < H ? o + W : NULL,
                                  M + (size_t)k * Tp + (size_t)q * tw, (size_t)K * Tp, tw, W,
@@ -561,7 +564,7 @@ static void winograd_chunk(const conv_layer *L, size_t row0, int rows_in_chunk, 
 
 /* ------------------------------------------------------------ im2col chunk -------- */
 
-static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
+static void im2col_chunk(const conv_layer *L, size_t p0, int T, int k0, int k1, float *scratch)
 {
     const int C = L->C, K = L->K, H = L->H, W = L->W;
     const size_t plane = (size_t)H * W;
@@ -587,8 +590,8 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
                 }
             }
         }
-    gemm_kct(M, L->weight, col, K, 9 * C, T);
-    for (int k = 0; k < K; k++) {
+    gemm_kct(M + (size_t)k0 * T, L->weight + (size_t)k0 * 9 * C, col, k1 - k0, 9 * C, T);
+    for (int k = k0; k < k1; k++) {
         const float *m = M + (size_t)k * T;
         const float b = L->bias[k];
         size_t g = p0;
@@ -609,6 +612,9 @@ static void im2col_chunk(const conv_layer *L, size_t p0, int T, float *scratch)
 
 void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch)
 {
+    const int kblocks = L->kblocks > 1 ? L->kblocks : 1;
+    const int kb = (int)(chunk % kblocks), k0 = L->K / kblocks * kb, k1 = k0 + L->K / kblocks;
+    chunk /= kblocks;
     size_t units = units_per_image(L), begin;
     int count;
     if (chunks_span_images(L)) {
@@ -622,7 +628,7 @@ void conv_run_chunk(const conv_layer *L, size_t chunk, float *scratch)
         begin = n * units + first;
     }
     if (L->winograd)
-        winograd_chunk(L, begin, count, scratch);
+        winograd_chunk(L, begin, count, k0, k1, scratch);
     else
-        im2col_chunk(L, begin, count, scratch);
+        im2col_chunk(L, begin, count, k0, k1, scratch);
 }

@@ -19,6 +19,10 @@ typedef struct conv_layer {
     const float *bias;   /* (K) */
     int relu;            /* apply max(0, .) to the output */
     int chunk;
+    /* Output channels split into kblocks equal parts, each its own chunk (K / kblocks a
+     * multiple of 32, so every kernel sees the same blocks of 8 or 32 channels and the
+     * bits do not change): work for idle threads when a layer has few tile rows. */
+    int kblocks;
 } conv_layer;
 
 void winograd_weights(float *U, const float *w, int K, int C);

@@ -565,6 +565,13 @@ void vgg_describe(vgg_workspace *ws, const float *in, int n, float *out)
                         .weight = net->weight[l],
                         .bias = net->bias[l], .relu = !tap || ws->opt.post_relu,
                         .chunk = ws->chunk[l]};
+        /* Too few chunks to keep every thread busy (deep layers, small batches): split
+         * the output channels too. The results do not change (conv_layer.kblocks). */
+        L.kblocks = 1;
+        size_t chunks = conv_chunk_count(&L);
+        while (ws->threads > 1 && chunks * L.kblocks < 2 * (size_t)ws->threads &&
+               K % (64 * L.kblocks) == 0)
+            L.kblocks *= 2;
         run_job(ws, conv_job, &L, conv_chunk_count(&L));
         if (!tap) {
             x = y;

@@ -44,6 +44,17 @@ static void check_conv(int N, int C, int K, int H, int W, int winograd, size_t b
     float *scratch = malloc(conv_scratch_floats(winograd, C, K, W, L.chunk) * sizeof(float));
     for (size_t c = 0; c < conv_chunk_count(&L); c++)
         conv_run_chunk(&L, c, scratch);
+    if (K % 64 == 0) { /* output channels split in two: not a bit may change */
+        float *again = malloc(nout * sizeof(float));
+        conv_layer L2 = L;
+        L2.out = again;
+        L2.kblocks = 2;
+        assert_int_equal(conv_chunk_count(&L2), 2 * conv_chunk_count(&L));
+        for (size_t c = 0; c < conv_chunk_count(&L2); c++)
+            conv_run_chunk(&L2, c, scratch);
+        assert_memory_equal(again, out, nout * sizeof(float));
+        free(again);
+    }
 
     double worst = 0.0;
     for (int n = 0; n < N; n++)
@@ -84,6 +95,7 @@ static void test_winograd_shapes(void **state)
     check_conv(2, 32, 8, 4, 4, 1, 1 << 22);    /* whole images per chunk */
     check_conv(1, 12, 12, 7, 7, 1, 1 << 20);   /* K not a multiple of 8: sgemm fallback */
     check_conv(1, 64, 64, 20, 20, 1, 1 << 20); /* T = 10 * rows: 48/32/16 blocks */
+    check_conv(2, 8, 64, 3, 5, 0, 1 << 20);    /* im2col split in two channel blocks */
 }
 
 static void test_im2col_shapes(void **state)
