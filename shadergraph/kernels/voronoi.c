@@ -21,8 +21,15 @@
  *
  * The cell scan visits offsets with the first coordinate varying fastest, as Cycles does;
  * the order matters where two points are at exactly the same distance (the first wins).
- * Float operations follow Cycles' order so results agree to the last bits, except for
- * reductions Cycles does with SIMD (4D dot products), where we use the SSE order.
+ *
+ * Bit-exactness: float operations follow Cycles' order and rounding as Blender's x86-64
+ * builds run it (the AVX2 kernel, GCC, -ffp-contract=fast): a product that feeds a sum
+ * directly is fused there, so it is written with fmaf() here (this project compiles with
+ * -ffp-contract=off); float3 and float4 dot products are _mm_dp_ps (products rounded,
+ * summed pairwise, never fused), float2 ones plain C (first product fused); a float2 or
+ * float4 divided by a scalar is multiplied by its reciprocal, a float3 is divided. With
+ * these, every reference case (tests/reference/nodes/voronoi_*) is bit-identical to
+ * Blender 3.4 and 4.3.
  */
 #include "shadergraph/node_type.h"
 #include "shadergraph/kernels/kernel_util.h"
@@ -70,7 +77,8 @@ typedef struct voronoi_result {
 
 /* ---- small helpers ----------------------------------------------------------------- */
 
-static inline float mixf(float a, float b, float t) { return a + t * (b - a); }
+/* Cycles' mix, a + t * (b - a), fused as its AVX2 build fuses it. */
+static inline float mixf(float a, float b, float t) { return fmaf(t, b - a, a); }
 /* Cycles' min/max/clamp, whose NaN behaviour differs from fminf/fmaxf. */
 static inline float minf(float a, float b) { return (a < b) ? a : b; }
 static inline float maxf(float a, float b) { return (a > b) ? a : b; }
@@ -91,7 +99,7 @@ static inline float smoothstepf(float edge0, float edge1, float x)
     if (x >= edge1)
         return 1.0f;
     float t = (x - edge0) / (edge1 - edge0);
-    return (3.0f - 2.0f * t) * (t * t);
+    return fmaf(-2.0f, t, 3.0f) * (t * t); /* (3 - 2t) t^2, 3 - 2t fused */
 }
 
 static inline float dot_n(const vpoint *a, const vpoint *b, int dims)
@@ -99,9 +107,9 @@ static inline float dot_n(const vpoint *a, const vpoint *b, int dims)
     switch (dims) {
     case 1:
         return a->v[0] * b->v[0];
-    case 2:
-        return a->v[0] * b->v[0] + a->v[1] * b->v[1];
-    case 3:
+    case 2: /* plain C in Cycles: GCC fuses the first product */
+        return fmaf(a->v[0], b->v[0], a->v[1] * b->v[1]);
+    case 3: /* _mm_dp_ps: (x + y) + z, unfused */
         return a->v[0] * b->v[0] + a->v[1] * b->v[1] + a->v[2] * b->v[2];
     default: /* _mm_dp_ps sums pairwise */
         return (a->v[0] * b->v[0] + a->v[1] * b->v[1]) + (a->v[2] * b->v[2] + a->v[3] * b->v[3]);
@@ -254,7 +262,7 @@ static inline vpoint feature_point(const vpoint *cell, const vpoint *offset, flo
     vpoint h = cell_jitter(neighbour, dims);
     vpoint pt = {{0.0f, 0.0f, 0.0f, 0.0f}};
     for (int c = 0; c < dims; c++)
-        pt.v[c] = offset->v[c] + h.v[c] * randomness;
+        pt.v[c] = fmaf(h.v[c], randomness, offset->v[c]);
     return pt;
 }
 
@@ -411,7 +419,7 @@ static inline void cell_table_fill(cell_table *t, const vpoint *cell, int radius
             const vpoint *off = &t->offset[s + l];
             *pt = (vpoint){{0.0f, 0.0f, 0.0f, 0.0f}};
             for (int c = 0; c < dims; c++)
-                pt->v[c] = off->v[c] + j[c][l] * randomness;
+                pt->v[c] = fmaf(j[c][l], randomness, off->v[c]);
             if (with_color)
                 for (int c = 0; c < 3; c++)
                     t->color[s + l][c] = col[c][l];
@@ -505,7 +513,7 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
                       smoothstepf(0.0f, 1.0f, 0.5f + 0.5f * (smooth_distance - d) / smoothness);
         float correction = smoothness * h * (1.0f - h);
         smooth_distance = mixf(smooth_distance, d, h) - correction;
-        correction /= 1.0f + 3.0f * smoothness;
+        correction /= fmaf(3.0f, smoothness, 1.0f);
         if (p->want_color)
             for (int c = 0; c < 3; c++)
                 smooth_color[c] = mixf(smooth_color[c], table.color[idx][c], h) - correction;
@@ -572,11 +580,12 @@ static float voronoi_distance_to_edge_1d(const voronoi_params *p, float w)
 {
     float cell = floorf(w);
     float local = w - cell;
-    float mid = hash_float_to_float(cell) * p->randomness;
-    float left = -1.0f + hash_float_to_float(cell - 1.0f) * p->randomness;
-    float right = 1.0f + hash_float_to_float(cell + 1.0f) * p->randomness;
-    float to_left = fabsf((mid + left) / 2.0f - local);
-    float to_right = fabsf((mid + right) / 2.0f - local);
+    /* Every product here feeds a sum, and Cycles' AVX2 build fuses each of them. */
+    float mid_hash = hash_float_to_float(cell);
+    float left = fmaf(hash_float_to_float(cell - 1.0f), p->randomness, -1.0f);
+    float right = fmaf(hash_float_to_float(cell + 1.0f), p->randomness, 1.0f);
+    float to_left = fabsf(fmaf(mid_hash, p->randomness, left) / 2.0f - local);
+    float to_right = fabsf(fmaf(mid_hash, p->randomness, right) / 2.0f - local);
     return minf(to_left, to_right);
 }
 
@@ -714,9 +723,9 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
         }
         if ((float)i <= p->detail) {
             max_amplitude += amplitude;
-            out.distance += octave.distance * amplitude;
+            out.distance = fmaf(octave.distance, amplitude, out.distance);
             for (int c = 0; c < 3; c++)
-                out.color[c] += octave.color[c] * amplitude;
+                out.color[c] = fmaf(octave.color[c], amplitude, out.color[c]);
             for (int c = 0; c < 4; c++)
                 out.position.v[c] = mixf(out.position.v[c], octave.position.v[c] * (1.0f / scale),
                                          amplitude);
@@ -727,10 +736,10 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
             float remainder = p->detail - floorf(p->detail);
             if (remainder != 0.0f) {
                 max_amplitude = mixf(max_amplitude, max_amplitude + amplitude, remainder);
-                out.distance = mixf(out.distance, out.distance + octave.distance * amplitude,
+                out.distance = mixf(out.distance, fmaf(octave.distance, amplitude, out.distance),
                                     remainder);
                 for (int c = 0; c < 3; c++)
-                    out.color[c] = mixf(out.color[c], out.color[c] + octave.color[c] * amplitude,
+                    out.color[c] = mixf(out.color[c], fmaf(octave.color[c], amplitude, out.color[c]),
                                         remainder);
                 for (int c = 0; c < 4; c++)
                     out.position.v[c] = mixf(
@@ -743,8 +752,10 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
 
     if (p->normalize && !p->blender3) {
         out.distance /= max_amplitude * p->max_distance;
+        /* Cycles' float3 /= multiplies by the reciprocal. */
+        const float inv_max_amplitude = 1.0f / max_amplitude;
         for (int c = 0; c < 3; c++)
-            out.color[c] /= max_amplitude;
+            out.color[c] *= inv_max_amplitude;
     }
     return out;
 }
@@ -791,7 +802,7 @@ static float fractal_distance_to_edge(const voronoi_params *p, const vpoint *coo
 /* Largest F1 distance within a cell for this metric (F2: twice that), used by Normalize. */
 static float voronoi_max_distance(const voronoi_params *p)
 {
-    const float half = 0.5f + 0.5f * p->randomness;
+    const float half = fmaf(0.5f, p->randomness, 0.5f);
     const float factor = p->feature == FEATURE_F2 ? 2.0f : 1.0f;
     if (p->dims == 1)
         return half * factor;
@@ -849,7 +860,7 @@ static inline void voronoi_batch(const sg_kernel_args *a, int dims)
         float color[3] = {0.0f, 0.0f, 0.0f};
         vpoint position = {{0.0f, 0.0f, 0.0f, 0.0f}};
         if (p.feature == FEATURE_DISTANCE_TO_EDGE) {
-            p.max_distance = 0.5f + 0.5f * p.randomness;
+            p.max_distance = fmaf(0.5f, p.randomness, 0.5f);
             distance = fractal_distance_to_edge(&p, &coord);
         }
         else if (p.feature == FEATURE_N_SPHERE_RADIUS) {

@@ -101,6 +101,27 @@ def main():
                      note=f"Randomness 0 ({feature} {socket}): regular lattice, exact ties.")
     voronoi_case("random_above1_f1", Randomness=3.0, Scale=5.0,
                  note="Randomness 3 is clamped to 1.")
+    # Fractional randomness: the jitter product no longer exact (Cycles fuses it).
+    for name, kw in (("random037_f1_distance", dict()),
+                     ("random037_f1_position", dict(socket="Position")),
+                     ("random06_smooth_color", dict(socket="Color", feature="SMOOTH_F1",
+                                                    Smoothness=0.45)),
+                     ("random03_edge", dict(feature="DISTANCE_TO_EDGE")),
+                     ("random05_radius", dict(socket="Radius", feature="N_SPHERE_RADIUS")),
+                     ("2d_random045_edge", dict(dims="2D", feature="DISTANCE_TO_EDGE")),
+                     ("1d_random07_edge", dict(dims="1D", feature="DISTANCE_TO_EDGE",
+                                               w_range=(-3.0, 5.0))),
+                     ("4d_random05_f1", dict(dims="4D", w_range=(-3.0, 5.0)))):
+        r = float("0." + name.split("random")[1].split("_")[0][1:])
+        voronoi_case(name, Randomness=r, Scale=5.0,
+                     note=f"Randomness {r}: {kw.get('feature', 'F1')} "
+                          f"{kw.get('socket', 'Distance')} ({kw.get('dims', '3D')}).", **kw)
+    voronoi_case("random03_edge_detail35_normalize", versions=V4, feature="DISTANCE_TO_EDGE",
+                 Randomness=0.3, Detail=3.5, normalize=True, Scale=4.0,
+                 note="Randomness 0.3 in 4.x octaves of distance to edge, normalized.")
+    voronoi_case("random045_f2_detail2_normalize", versions=V4, feature="F2", Randomness=0.45,
+                 Detail=2.0, normalize=True, Scale=4.0,
+                 note="Randomness 0.45: Normalize's max distance (0.5 + 0.5 r) * 2 * sqrt 3.")
 
     # Smoothness: 0 (4.x: F1; 3.x: division by zero, which amounts to F1), 1, and a metric.
     voronoi_case("smooth0_distance", feature="SMOOTH_F1", Smoothness=0.0, Scale=6.0,
