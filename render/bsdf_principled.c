@@ -705,13 +705,17 @@ int principled_sample(const principled_inputs *in, int blender, const float wo[3
 }
 
 /* One point of a lobe's sampling domain: f_cos / pdf (without the weight) for the
- * direction u maps to; false where the lobe gives no direction there. */
-static bool lobe_ratio(const closures *cl, int i, float u1, float u2, float r[3])
+ * direction u maps to; false where the lobe gives no direction there. With also >= 0, a
+ * second microfacet lobe with the same normal and roughness (so the same sampled
+ * directions and pdf) is evaluated at that direction into r2. */
+static bool lobe_ratio(const closures *cl, int i, int also, float u1, float u2, float r[3],
+                       float r2[3])
 {
     const lobe *l = &cl->lobe[i];
     vec3 L;
     float f[3], p;
     r[0] = r[1] = r[2] = 0.0f;
+    r2[0] = r2[1] = r2[2] = 0.0f;
     if (i == LOBE_DIFFUSE) {
         vec3 t, bt;
         tangent_frame(l->N, &t, &bt);
@@ -726,8 +730,16 @@ static bool lobe_ratio(const closures *cl, int i, float u1, float u2, float r[3]
         if (l->singular) {
             lobe_fresnel(l, v3_dot(l->N, cl->V), f);
             p = 1.0f;
+            if (also >= 0)
+                lobe_fresnel(&cl->lobe[also], v3_dot(l->N, cl->V), r2);
         } else {
             microfacet_eval(cl, l, L, f, &p);
+            if (also >= 0 && p > 0.0f) {
+                float p2;
+                microfacet_eval(cl, &cl->lobe[also], L, r2, &p2);
+                for (int c = 0; c < 3; c++)
+                    r2[c] /= p;
+            }
         }
     }
     if (!(p > 0.0f))
@@ -744,20 +756,24 @@ static bool lobe_ratio(const closures *cl, int i, float u1, float u2, float r[3]
  * u1 = 1 - (1 - t)^2 (weight 2 (1 - t)) makes smooth; and the integrand jumps to 0 where
  * the sampled direction falls below Ng, so cells on that edge (where a neighbour differs
  * in validity; u2 is periodic) are refined SUB x SUB. */
-static void lobe_albedo_quadrature(const closures *cl, int i, float alb[3])
+static void lobe_albedo_quadrature(const closures *cl, int i, int also, float alb[3],
+                                   float alb2[3])
 {
     enum { SIDE = 16, SUB = 4 };
-    float val[SIDE][SIDE][3];
+    float val[SIDE][SIDE][3], val2[SIDE][SIDE][3];
     bool ok[SIDE][SIDE];
     for (int a = 0; a < SIDE; a++) {
         float t = (a + 0.5f) / SIDE, w = 2.0f * (1.0f - t);
         for (int b = 0; b < SIDE; b++) {
-            ok[a][b] = lobe_ratio(cl, i, 1.0f - sqr(1.0f - t), (b + 0.5f) / SIDE, val[a][b]);
-            for (int c = 0; c < 3; c++)
+            ok[a][b] = lobe_ratio(cl, i, also, 1.0f - sqr(1.0f - t), (b + 0.5f) / SIDE,
+                                  val[a][b], val2[a][b]);
+            for (int c = 0; c < 3; c++) {
                 val[a][b][c] *= w;
+                val2[a][b][c] *= w;
+            }
         }
     }
-    double sum[3] = {0, 0, 0};
+    double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
     for (int a = 0; a < SIDE; a++) {
         for (int b = 0; b < SIDE; b++) {
             /* The diffuse lobe fades to 0 at Ng's horizon (the bump shadowing term), so
@@ -767,25 +783,35 @@ static void lobe_albedo_quadrature(const closures *cl, int i, float alb[3])
                         (a > 0 && ok[a - 1][b] != ok[a][b]) ||
                         (a + 1 < SIDE && ok[a + 1][b] != ok[a][b]));
             if (!edge) {
-                for (int c = 0; c < 3; c++)
+                for (int c = 0; c < 3; c++) {
                     sum[c] += val[a][b][c];
+                    sum2[c] += val2[a][b][c];
+                }
                 continue;
             }
-            double cell[3] = {0, 0, 0};
+            double cell[3] = {0, 0, 0}, cell2[3] = {0, 0, 0};
             for (int p = 0; p < SUB; p++) {
                 for (int q = 0; q < SUB; q++) {
-                    float r[3], t = (a + (p + 0.5f) / SUB) / SIDE, w = 2.0f * (1.0f - t);
-                    lobe_ratio(cl, i, 1.0f - sqr(1.0f - t), (b + (q + 0.5f) / SUB) / SIDE, r);
-                    for (int c = 0; c < 3; c++)
+                    float r[3], r2[3], t = (a + (p + 0.5f) / SUB) / SIDE, w = 2.0f * (1.0f - t);
+                    lobe_ratio(cl, i, also, 1.0f - sqr(1.0f - t), (b + (q + 0.5f) / SUB) / SIDE,
+                               r, r2);
+                    for (int c = 0; c < 3; c++) {
                         cell[c] += w * r[c];
+                        cell2[c] += w * r2[c];
+                    }
                 }
             }
-            for (int c = 0; c < 3; c++)
+            for (int c = 0; c < 3; c++) {
                 sum[c] += cell[c] / (SUB * SUB);
+                sum2[c] += cell2[c] / (SUB * SUB);
+            }
         }
     }
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < 3; c++) {
         alb[c] = (float)(sum[c] / (SIDE * SIDE)) * cl->lobe[i].weight[c];
+        if (also >= 0)
+            alb2[c] = (float)(sum2[c] / (SIDE * SIDE)) * cl->lobe[also].weight[c];
+    }
 }
 
 void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
@@ -796,13 +822,31 @@ void principled_albedo(const principled_inputs *in, int blender, const float wo[
     if (!closures_setup(&cl, in, blender, wo, Ng))
         return;
     float roughness = cl.blender == 3 ? in->roughness : saturate(in->roughness);
+    bool done[N_LOBES] = {false};
     for (int i = 0; i < N_LOBES; i++) {
         const lobe *l = &cl.lobe[i];
-        if (!l->active)
+        if (!l->active || done[i])
             continue;
-        float alb[3];
+        float alb[3], alb2[3];
         if (!v3_equal(l->N, cl.Ng)) {
-            lobe_albedo_quadrature(&cl, i, alb);
+            if (i == LOBE_DIFFUSE && cl.blender == 4) {
+                /* Lambert under the bump shadowing term depends on the tilt only. */
+                float tilt = acosf(fminf(fmaxf(v3_dot(l->N, cl.Ng), -1.0f), 1.0f));
+                float d = microfacet_table_1d(microfacet_bump_lambert, tilt / (0.5f * PI_F), 65);
+                for (int c = 0; c < 3; c++)
+                    alb[c] = d * l->weight[c];
+            } else {
+                /* 4.x's specular and metal lobes share normal and roughness: one pass. */
+                int also = -1;
+                if (i == LOBE_SPECULAR && cl.lobe[LOBE_METAL].active) {
+                    also = LOBE_METAL;
+                    done[LOBE_METAL] = true;
+                }
+                lobe_albedo_quadrature(&cl, i, also, alb, alb2);
+                if (also >= 0)
+                    for (int c = 0; c < 3; c++)
+                        albedo[c] += alb2[c];
+            }
         } else {
             float mu = v3_dot(cl.V, l->N);
             if (i == LOBE_DIFFUSE) {

@@ -23,6 +23,9 @@ extern const float microfacet_alb4_S5[32 * 32];
 extern const float microfacet_alb4_S6[32 * 32];
 extern const float microfacet_alb3_E[32 * 32];
 extern const float microfacet_alb3_S[32 * 32 * 16];
+/* 4.x Lambert times the bump shadowing term: albedo by tilt angle acos(N.Ng) / (pi/2),
+ * 65 entries (render/gen_bump_table.py). */
+extern const float microfacet_bump_lambert[65];
 /* 3.x principled diffuse albedo = D[0][mu] + r * D[1][mu] + r^2 * D[2][mu], 64 mu. */
 extern const float microfacet_alb3_D[3 * 64];
 
