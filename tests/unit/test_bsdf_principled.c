@@ -326,6 +326,23 @@ static void test_hand_values(void **state)
         assert_float_equal(pdf, pd / PI + ps / (4.0 * PI), 1e-6);
     }
 
+    /* 3.x Disney diffuse alone (Specular 0, no metal: no specular closure), roughness 1,
+     * V = N, L at cos 0.5: FV = 0, FL = (1 - 0.5)^5 = 1/32, RR = 1 * (1 + L.V) = 1.5,
+     * f = (1 - FL/2) + RR FL = 1 + 1/32, f_cos = base f cos / pi; pdf cos / pi. */
+    principled_inputs_default(&in);
+    in.roughness = 1.0f;
+    in.specular_ior_level = 0.0f;
+    {
+        float L60[3] = {sqrtf(0.75f), 0.0f, 0.5f};
+        principled_eval(&in, 3, up, L60, NG, f, &pdf);
+        assert_float_equal(f[0], 0.8 * (1.0 + 1.0 / 32.0) * 0.5 / PI, 1e-6);
+        assert_float_equal(pdf, 0.5 / PI, 1e-6);
+        /* Half the roughness halves the retro-reflection: f = 1 - 1/64 + 0.75/32. */
+        in.roughness = 0.5f;
+        principled_eval(&in, 3, up, L60, NG, f, &pdf);
+        assert_float_equal(f[0], 0.8 * (1.0 - 1.0 / 64.0 + 0.75 / 32.0) * 0.5 / PI, 1e-6);
+    }
+
     /* 3.x, roughness 0 metal: a delta. Sample at view cos 0.5: f_cos / pdf is the Fresnel
      * mix(cspec0, 1, (F_real - F0) / (1 - F0)) for IOR 1.5 at cos 0.5. */
     principled_inputs_default(&in);
