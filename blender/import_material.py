@@ -219,6 +219,18 @@ def _build_tree(tree, tdict, groups, major, source, prefix):
             nd = _noise_for_blender3(nd, linked_in.get(nd["name"], ()),
                                      linked_out.get(nd["name"], ()), source, where)
             idname = nd["type"]
+        if major < 4 and idname == "ShaderNodeTexVoronoi":
+            # 3.x's Voronoi has no octaves: Detail, Roughness, Lacunarity and Normalize do
+            # not exist there, and imsynth's 3.x mode ignores them, as 3.4 would.
+            extra = ("Detail", "Roughness", "Lacunarity")
+            bad = [k for k in linked_in.get(nd["name"], ()) if k in extra]
+            if bad:
+                _fail(source, where, "Blender 3.x's Voronoi Texture has no %s socket to link"
+                      % ", ".join(sorted(bad)))
+            nd = dict(nd)
+            nd["inputs"] = {k: v for k, v in nd.get("inputs", {}).items() if k not in extra}
+            nd["properties"] = {k: v for k, v in nd.get("properties", {}).items()
+                                if k != "normalize"}
         if major < 4 and idname == "ShaderNodeBsdfPrincipled":
             bad = [k for k in list(nd.get("inputs", {})) + list(linked_in.get(nd["name"], ()))
                    if k not in PRINCIPLED_COMMON]
