@@ -126,6 +126,21 @@ class Tree:
                 self.link(v[0], v[1], n, sock)
         return n
 
+    def param_range(self, name, value, lo, hi, label=None):
+        """lo + value * (hi - lo) for parameters in [0, 1], as Math nodes (Multiply, then
+        Add unless lo is 0): unlike Map Range, which Cycles never constant-folds, Math
+        nodes with constant inputs fold away once the parameter is bound. Not Multiply
+        Add: Cycles fuses it in its AVX2 kernel but folds it on the host unfused, so its
+        last bit depends on where it is computed. lo and hi are numbers or (node, socket)
+        pairs (then a Subtract node computes hi - lo)."""
+        const = not isinstance(lo, tuple) and not isinstance(hi, tuple)
+        span = float(hi - lo) if const else (self.math(name + " Span", "SUBTRACT", hi, lo), "Value")
+        text = label or ("%g..%g" % (lo, hi) if const else None)
+        if const and lo == 0.0:
+            return (self.math(name, "MULTIPLY", value, span, label=text), "Value")
+        m = self.math(name + " Width", "MULTIPLY", value, span)
+        return (self.math(name, "ADD", (m, "Value"), lo, label=text), "Value")
+
     def mix_float(self, name, fac, a, b, label=None):
         n = self.node("ShaderNodeMix", name, {"data_type": "FLOAT"}, label=label)
         self._feed(n, "Factor_Float", fac)
@@ -303,12 +318,12 @@ def noise_module():
                    fin("Pattern"), fin("Scale", 0.3), fin("Detail", 0.3), fin("Roughness", 0.5),
                    fin("Distortion")],
                   [fout("Value")])
-    scale = g.map_range("Scale Range", (GI, "Scale"), 1.0, 14.0, label="Scale 1..14")
-    cell_scale = g.map_range("Cell Scale Range", (GI, "Scale"), 1.5, 10.0, label="Cells 1.5..10")
-    detail = g.map_range("Detail Range", (GI, "Detail"), 0.0, 8.0, label="Detail 0..8")
-    rough = g.map_range("Roughness Range", (GI, "Roughness"), 0.35, 0.75, label="Roughness .35..75")
-    dist = g.map_range("Distortion Range", (GI, "Distortion"), 0.0, 1.5, label="Distortion 0..1.5")
-    rnd = g.map_range("Randomness Range", (GI, "Distortion"), 1.0, 0.5, label="Randomness 1..0.5")
+    scale = g.param_range("Scale Range", (GI, "Scale"), 1.0, 14.0, label="Scale 1..14")
+    cell_scale = g.param_range("Cell Scale Range", (GI, "Scale"), 1.5, 10.0, label="Cells 1.5..10")
+    detail = g.param_range("Detail Range", (GI, "Detail"), 0.0, 8.0, label="Detail 0..8")
+    rough = g.param_range("Roughness Range", (GI, "Roughness"), 0.35, 0.75, label="Roughness .35..75")
+    dist = g.param_range("Distortion Range", (GI, "Distortion"), 0.0, 1.5, label="Distortion 0..1.5")
+    rnd = g.param_range("Randomness Range", (GI, "Distortion"), 1.0, 0.5, label="Randomness 1..0.5")
     vec = (GI, "Vector")
     outs = []
 
@@ -316,20 +331,20 @@ def noise_module():
         inputs = dict(extra)
         n = g.node("ShaderNodeTexNoise", name, {"noise_type": ntype}, inputs or None)
         g.link(vec[0], vec[1], n, "Vector")
-        g.link(scale, "Result", n, "Scale")
-        g.link(detail, "Result", n, "Detail")
-        g.link(rough, "Result", n, "Roughness")
+        g.link(scale[0], scale[1], n, "Scale")
+        g.link(detail[0], detail[1], n, "Detail")
+        g.link(rough[0], rough[1], n, "Roughness")
         # Blender 3.x builds the multifractal types as Musgrave nodes, which have no
         # Distortion: leaving it at 0 keeps every extracted sub-shader buildable there.
         if ntype == "FBM":
-            g.link(dist, "Result", n, "Distortion")
+            g.link(dist[0], dist[1], n, "Distortion")
         return n
 
     def voronoi(name, feature):
         n = g.node("ShaderNodeTexVoronoi", name, {"feature": feature} if feature != "F1" else None)
         g.link(vec[0], vec[1], n, "Vector")
-        g.link(cell_scale, "Result", n, "Scale")
-        g.link(rnd, "Result", n, "Randomness")
+        g.link(cell_scale[0], cell_scale[1], n, "Scale")
+        g.link(rnd[0], rnd[1], n, "Randomness")
         return n
 
     def norm(k, src, lo, hi, interpolation="LINEAR"):
@@ -343,10 +358,10 @@ def noise_module():
     # octaves' total weight M = 1 + r + ... + r^detail = (1 - r^(detail+1)) / (1 - r).
     # Windows below are fractions of M measured over the plane (p1..p99 at the
     # extremes of Detail and Roughness).
-    octaves = g.math("Octaves", "ADD", (detail, "Result"), 1.0, label="detail + 1")
-    rpow = g.math("Last Weight", "POWER", (rough, "Result"), (octaves, "Value"), label="r^(detail+1)")
+    octaves = g.math("Octaves", "ADD", detail, 1.0, label="detail + 1")
+    rpow = g.math("Last Weight", "POWER", rough, (octaves, "Value"), label="r^(detail+1)")
     num = g.math("Weight Numerator", "SUBTRACT", 1.0, (rpow, "Value"))
-    den = g.math("Weight Denominator", "SUBTRACT", 1.0, (rough, "Result"))
+    den = g.math("Weight Denominator", "SUBTRACT", 1.0, rough)
     total = g.math("Octave Weight", "DIVIDE", (num, "Value"), (den, "Value"), label="M")
 
     def of_total(name, f):
@@ -415,15 +430,15 @@ def value_mapping_module():
     stepped (terraces) / ridge (a Color Ramp folding the window: 0 -> 1 -> 0)."""
     g = new_group("Value Mapping", [fin("Value", 0.5), fin("Mode"), fin("Low", 0.0), fin("High", 1.0)],
                   [fout("Value")])
-    lo = g.map_range("Low Range", (GI, "Low"), 0.0, 0.45, label="low 0..0.45")
-    hi = g.map_range("High Range", (GI, "High"), 0.55, 1.0, label="high 0.55..1")
+    lo = g.param_range("Low Range", (GI, "Low"), 0.0, 0.45, label="low 0..0.45")
+    hi = g.param_range("High Range", (GI, "High"), 0.55, 1.0, label="high 0.55..1")
     outs = []
-    lin = g.map_range("Linear", (GI, "Value"), 0.0, 1.0, (lo, "Result"), (hi, "Result"))
+    lin = g.map_range("Linear", (GI, "Value"), 0.0, 1.0, lo, hi)
     outs.append((lin, "Result"))
-    smo = g.map_range("Smootherstep", (GI, "Value"), 0.0, 1.0, (lo, "Result"), (hi, "Result"),
+    smo = g.map_range("Smootherstep", (GI, "Value"), 0.0, 1.0, lo, hi,
                       "SMOOTHERSTEP")
     outs.append((smo, "Result"))
-    ste = g.map_range("Terraces", (GI, "Value"), 0.0, 1.0, (lo, "Result"), (hi, "Result"),
+    ste = g.map_range("Terraces", (GI, "Value"), 0.0, 1.0, lo, hi,
                       "STEPPED", steps=4.0)
     outs.append((ste, "Result"))
     ramp = g.node("ShaderNodeValToRGB", "Ridge Ramp", ramp={
@@ -470,14 +485,14 @@ def hsv_color_module():
     g.link(GI, "Hue", ramp, "Fac")
     hsv = g.node("ShaderNodeSeparateColor", "Palette HSV", {"mode": "HSV"})
     g.link(ramp, "Color", hsv, "Color")
-    sat = g.map_range("Saturation Range", (GI, "Saturation"), 0.0, (GI, "Saturation Max"))
-    sq = g.math("Mostly Muted", "MULTIPLY", (sat, "Result"), (GI, "Saturation"))
+    sat = g.math("Saturation Range", "MULTIPLY", (GI, "Saturation"), (GI, "Saturation Max"))
+    sq = g.math("Mostly Muted", "MULTIPLY", (sat, "Value"), (GI, "Saturation"))
     amt = g.math("Saturation", "MULTIPLY", (sq, "Value"), (hsv, "Green"), clamp=True)
-    val = g.map_range("Value Range", (GI, "Value"), (GI, "Value Min"), (GI, "Value Max"))
+    val = g.param_range("Value Range", (GI, "Value"), (GI, "Value Min"), (GI, "Value Max"))
     c = g.node("ShaderNodeCombineColor", "HSV", {"mode": "HSV"})
     g.link(hsv, "Red", c, "Red")
     g.link(amt, "Value", c, "Green")
-    g.link(val, "Result", c, "Blue")
+    g.link(val[0], val[1], c, "Blue")
     g.link(c, "Color", GO, "Color")
     return g
 
@@ -580,10 +595,10 @@ def build():
     # Coordinates: object space (the plane spans -1..1), shifted by Pattern Offset and
     # warped by a fixed fBM (marble-like swirls when Warp Amount is high).
     tc = t.node("ShaderNodeTexCoord", "Texture Coordinate")
-    off = t.map_range("Offset Range", p("Pattern Offset"), 0.0, 100.0, label="offset 0..100")
+    off = t.param_range("Offset Range", p("Pattern Offset"), 0.0, 100.0, label="offset 0..100")
     offv = t.node("ShaderNodeCombineXYZ", "Offset Vector")
-    t.link(off, "Result", offv, "X")
-    t.link(off, "Result", offv, "Y")
+    t.link(off[0], off[1], offv, "X")
+    t.link(off[0], off[1], offv, "Y")
     shifted = t.node("ShaderNodeVectorMath", "Shift", {"operation": "ADD"})
     t.link(tc, "Object", shifted, "Vector")
     t.link(offv, "Vector", shifted, "Vector_001")
@@ -592,10 +607,10 @@ def build():
     # coords = shifted + amount * warp colour: one node. The warp colour's mean (0.5)
     # only translates every pattern by a constant, as Pattern Offset does.
     wsq = t.math("Warp Squared", "MULTIPLY", p("Warp Amount"), p("Warp Amount"))
-    wamt = t.map_range("Warp Range", (wsq, "Value"), 0.0, 0.5, label="warp 0..0.5")
+    wamt = t.param_range("Warp Range", (wsq, "Value"), 0.0, 0.5, label="warp 0..0.5")
     coords = t.node("ShaderNodeVectorMath", "Warped Coordinates", {"operation": "MULTIPLY_ADD"})
     t.link(warpn, "Color", coords, "Vector")
-    t.link(wamt, "Result", coords, "Vector_001")
+    t.link(wamt[0], wamt[1], coords, "Vector_001")
     t.link(shifted, "Vector", coords, "Vector_002")
 
     # Three noise modules on the same coordinates: Pattern Offset (up to 100) times
@@ -651,12 +666,16 @@ def build():
     c2 = colour("Color 2", "Color 2", 1.0, 0.3, 0.95)
     c3 = colour("Accent Color", "Accent", 1.5, 0.05, 0.8)
     two_tone = t.mix_color("Two-tone", cfac, c1, c2)
-    grime_sig = t.map_range("Grime Shade", signals["C"], 0.15, 1.0, label="grime 0.15..1")
+    # On a varying signal (never folded), so one Multiply Add node.
+    grime = t.node("ShaderNodeMath", "Grime Shade", {"operation": "MULTIPLY_ADD"},
+                   {"Value_001": 0.85, "Value_002": 0.15}, label="grime 0.15..1")
+    t.link(signals["C"][0], signals["C"][1], grime, "Value")
+    grime_sig = (grime, "Value")
     grime = t.mix_color("Grime", p("Grime Amount"), (two_tone, "Result_Color"),
-                        (grime_sig, "Result"), "MULTIPLY")
-    thr = t.map_range("Accent Threshold", p("Accent Coverage"), 0.85, 0.15)
-    thr2 = t.math("Accent Edge", "ADD", (thr, "Result"), 0.08)
-    mask = t.map_range("Accent Mask", signals["C"], 0.0, 1.0, (thr, "Result"), (thr2, "Value"),
+                        grime_sig, "MULTIPLY")
+    thr = t.param_range("Accent Threshold", p("Accent Coverage"), 0.85, 0.15)
+    thr2 = t.math("Accent Edge", "ADD", thr, 0.08)
+    mask = t.map_range("Accent Mask", signals["C"], 0.0, 1.0, thr, (thr2, "Value"),
                        "SMOOTHSTEP")
     accent = t.mix_color("Accent Spots", (mask, "Result"), (grime, "Result_Color"), c3)
     overlay = t.mix_color("Detail Overlay", p("Overlay Strength"), (accent, "Result_Color"),
@@ -678,10 +697,10 @@ def build():
     # Roughness.
     rsrc = switch3("Roughness Source", "Mult 3 Roughness Source", [(de, "Value"), signals["C"], csrc])
     rsig = mapping("Roughness Mapping", rsrc, "Roughness")
-    rbase = t.map_range("Roughness Base Range", p("Roughness Base"), 0.05, 0.8)
-    rvar = t.map_range("Roughness Variation Range", p("Roughness Variation"), 0.0, 0.6)
-    rtop = t.math("Roughness Top", "ADD", (rbase, "Result"), (rvar, "Result"), clamp=True)
-    rough = t.map_range("Roughness", rsig, (rbase, "Result"), (rtop, "Value"))
+    rbase = t.param_range("Roughness Base Range", p("Roughness Base"), 0.05, 0.8)
+    rvar = t.param_range("Roughness Variation Range", p("Roughness Variation"), 0.0, 0.6)
+    rtop = t.math("Roughness Top", "ADD", rbase, rvar, clamp=True)
+    rough = t.map_range("Roughness", rsig, rbase, (rtop, "Value"))
 
     # Height -> Bump.
     hsrc = switch3("Bump Source", "Mult 3 Bump Source", [(st, "Value"), (de, "Value"), csrc])
@@ -691,12 +710,12 @@ def build():
     t.link(P, "Mult 2 Bump Invert", hsw, "Selector")
     t.link(*hsig, hsw, "Input 0")
     t.link(inv, "Value", hsw, "Input 1")
-    bstr = t.map_range("Bump Strength Range", p("Bump Strength"), 0.05, 1.0)
-    bdist = t.map_range("Bump Distance Range", p("Bump Distance"), 0.002, 0.05)
+    bstr = t.param_range("Bump Strength Range", p("Bump Strength"), 0.05, 1.0)
+    bdist = t.param_range("Bump Distance Range", p("Bump Distance"), 0.002, 0.05)
     bump = t.node("ShaderNodeBump", "Bump")
     t.link(hsw, "Output", bump, "Height")
-    t.link(bstr, "Result", bump, "Strength")
-    t.link(bdist, "Result", bump, "Distance")
+    t.link(bstr[0], bstr[1], bump, "Strength")
+    t.link(bdist[0], bdist[1], bump, "Distance")
 
     bsdf = t.node("ShaderNodeBsdfPrincipled", "Principled BSDF")
     t.link(layer, "Color", bsdf, "Base Color")
@@ -793,10 +812,12 @@ lacks, is never used by those types here), so sub-shaders are the thing to open 
 
 **Checked** (when this design was committed): our evaluator and Blender 4.3
 (`blender/render_socket.py`, point-sampled through Emission) agree on frames 3, 11, 42
-and 77 within 1.2e-6 on Base Color, Metallic, Roughness and Normal at 128 x 128; the
-extractor (`sg_extract`, shadergraph/extract.c as of commit 7f9dcdc) reduces frames
-0-999 to 28-40 nodes (median 32, 90th percentile 36), and the sub-shader's four maps equal the super-shader's bit for bit on
-frames 0-59 (64 x 64 points). Evaluating the whole super-shader is expensive (every
+and 77 within 1.2e-7 on Base Color, Metallic, Roughness and Normal at 128 x 128; the
+extractor (`sg_extract`, which applies exactly Cycles' constant folds) reduces frames
+0-299 to 21-36 nodes (median 29, 90th percentile 33), and the sub-shader's four maps
+equal the super-shader's bit for bit (frames 0-9, 64 x 64 points). Parameters are
+mapped to node ranges with Math nodes (Multiply, Add), not Map Range, because Cycles
+never folds a Map Range, even one with constant inputs. Evaluating the whole super-shader is expensive (every
 pattern of every module is computed, then switched): render the extracted sub-shader.
 
 **Contact sheet.** `supershader-contact-sheet.png`: frames 0-63 (`imsynth sample --seed
