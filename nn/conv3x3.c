@@ -10,13 +10,16 @@
  * U[xi] (K x C) * V[xi] (C x T) over the T tiles of a chunk: 16 multiplies per tile and
  * channel pair instead of 36. B and A hold only 0 and +-1 and G only 0, +-1/2, so the
  * transforms add a few roundings of ordinary fp32 sums and nothing else: this path agrees
- * with direct summation to fp32 rounding (tests/unit/test_nn_conv.c measures it).
+ * with direct summation to fp32 rounding (tests/unit/test_nn_layers.c measures it).
  *
  * im2col: for thin inputs (conv1_1 has 3 channels) and tiny planes, where the Winograd
  * products would be too narrow: col (9C x T) and one product W (K x 9C) * col.
  *
- * Both write a chunk's product into a scratch buffer and scatter it, plus bias, into the
- * NCHW output.
+ * The products run on our own AVX-512 kernel (gemm_kct: V is written in the layout it
+ * reads, so nothing is packed), or, for the fast path, in bf16 on AMX tiles; OpenBLAS
+ * sgemm only where AVX-512 is missing or K is not a multiple of 8. Both paths write a
+ * chunk's products into scratch and scatter them, plus bias (and ReLU when asked), into
+ * the NCHW output.
  */
 #include <cblas.h>
 #include <stdint.h>
