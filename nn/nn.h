@@ -133,11 +133,16 @@ typedef struct vgg_options {
     vgg_pool pool;
     int post_relu; /* Gram after the ReLU instead of before */
     vgg_precision precision;
-    int threads; /* worker threads for the conv layers; 0 = 1 */
+    /* Worker threads (conv, Gram and pooling run on them); 0 = 1. The results do not
+     * depend on it, nor on the batch size: every chunk of work is summed in a fixed
+     * order. With threads > 1 pin OpenBLAS to one thread (OPENBLAS_NUM_THREADS=1 or
+     * openblas_set_num_threads(1)): its own threads would only fight ours. */
+    int threads;
 } vgg_options;
 
 /* Everything a forward pass needs, allocated once for up to max_batch images: the hot
- * loop allocates nothing. Not shareable between threads; one per caller thread. */
+ * loop allocates nothing. Not shareable between threads; one per caller thread. It keeps
+ * a pointer to net, which must outlive it. */
 typedef struct vgg_workspace vgg_workspace;
 
 vgg_workspace *vgg_workspace_create(const vgg19 *net, const vgg_options *opt, int max_batch);
