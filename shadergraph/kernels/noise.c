@@ -727,12 +727,18 @@ NOISE_INLINE lane_f lane_perlin_4d(lane_f x, lane_f y, lane_f z, lane_f w, bool 
 /* wrap_coordinate per lane; the fmodf of the rare far lanes is done one at a time. */
 static inline lane_f lane_wrap(lane_f p)
 {
-    lane_u near = (lane_u)((lane_f)((lane_u)p & 0x7fffffffu) < 100000.0f);
+    lane_f magnitude = (lane_f)((lane_u)p & 0x7fffffffu);
+#if NOISE_LANES == 16
+    if (_mm512_cmp_ps_mask((__m512)magnitude, _mm512_set1_ps(100000.0f), _CMP_LT_OQ) == 0xffff)
+        return p;
+#else
+    lane_u near = (lane_u)(magnitude < 100000.0f);
     uint32_t all_near = ~0u;
     for (int k = 0; k < NOISE_LANES; k++)
         all_near &= near[k];
     if (all_near)
         return p;
+#endif
     for (int k = 0; k < NOISE_LANES; k++)
         p[k] = wrap_coordinate(p[k]);
     return p;
@@ -1319,7 +1325,20 @@ static lane_f lane_fbm(const noise_node *nn, const noise_inputs *in, const lane_
 
     lane_f amp = lane_splat(1.0f), maxamp = lane_splat(0.0f), sum = lane_splat(0.0f);
     lane_f next = lane_splat(0.0f); /* the fractional octave's term */
-    for (int i = 0; i < most; i++) {
+    /* Octaves every lane sums need no masks (usually all of them: Detail is constant). */
+    int fewest = n[0];
+    for (int k = 1; k < NOISE_LANES; k++)
+        fewest = n[k] < fewest ? n[k] : fewest;
+    int i = 0;
+    for (; i <= fewest && i < most; i++) {
+        lane_f v = m->scale * t[i];
+        if (m->blender3)
+            v = lane_fma(lane_splat(0.5f), v, lane_splat(0.5f));
+        sum = lane_fma(v, amp, sum);
+        maxamp = maxamp + amp;
+        amp = amp * roughness;
+    }
+    for (; i < most; i++) {
         lane_f v = m->scale * t[i];
         if (m->blender3)
             v = lane_fma(lane_splat(0.5f), v, lane_splat(0.5f)); /* unsigned noise */
