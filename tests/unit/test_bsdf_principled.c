@@ -264,9 +264,10 @@ static void check_albedo(int blender, float bump)
             double err = fabs(alb[c] - e.mean[c]) - 5.0 * e.se[c];
             worst = fmax(worst, err);
             /* Allowance beyond 5 sigma: linear interpolation of the 32 x 32 tables between
-             * grid points (worst seen 0.0007, at low roughness and oblique views), or the
-             * quadrature used for bumped normals (0.0013 worst against a 4x finer one). */
-            if (err > 0.002)
+             * grid points (worst seen 0.0007, at low roughness and oblique views), or, for
+             * bumped normals, the coarse quadrature (worst 0.0045, mean 0.0003, against an
+             * 8x finer one over 800 random cases). */
+            if (err > (bump > 0.0f ? 0.005 : 0.002))
                 fail_msg("blender %d bump %.1f trial %d channel %d: principled_albedo %.5f, "
                          "Monte Carlo %.5f +- %.5f (roughness %.3f metallic %.3f cos %.3f)",
                          blender, bump, trial, c, alb[c], e.mean[c], e.se[c], in.roughness,
