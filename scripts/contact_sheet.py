@@ -11,8 +11,12 @@ shade Base Color by a Lambert term of the Bump normal (light from the upper left
 `imsynth eval-graph` evaluates that colour over the scene's plane to a PNG. The tiles
 are then laid out row-major, frame `first` at the top left, with 4 px white gutters.
 
-This is a preview of the maps, not a render: no specular, no metal, no shadows. It
-stands in until the path tracer (render/) exists; then render the same frames instead.
+This is a preview of the maps, not a render: no specular, no metal, no shadows.
+
+With --render, each frame is instead extracted (`imsynth extract --seed N`: the
+sub-shader, which evaluates bit for bit like the super-shader and is far cheaper) and
+rendered with the path tracer (`imsynth render`, the scene of DESIGN.md, 256 x 256,
+--spp samples, one thread), and the tile is the render halved by 2 x 2 averaging.
 """
 
 import argparse
@@ -114,6 +118,16 @@ def read_png(path):
     return w, h, rows
 
 
+def halve(w, h, rows):
+    """2 x 2 box average of 8-bit RGB rows (on the sRGB values: a preview)."""
+    out = []
+    for y in range(0, h - 1, 2):
+        a, b = rows[y], rows[y + 1]
+        out.append(bytes((a[3 * x + c] + a[3 * x + 3 + c] + b[3 * x + c] + b[3 * x + 3 + c] + 2) // 4
+                         for x in range(0, w - 1, 2) for c in range(3)))
+    return w // 2, h // 2, out
+
+
 def write_png(path, w, h, rows):
     def chunk(kind, body):
         return (struct.pack(">I", len(body)) + kind + body +
@@ -143,6 +157,10 @@ def main():
     ap.add_argument("--count", type=int, default=64)
     ap.add_argument("--columns", type=int, default=8)
     ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--render", action="store_true",
+                    help="path-trace the extracted sub-shader instead of the preview")
+    ap.add_argument("--spp", type=int, default=16, help="samples per pixel with --render")
+    ap.add_argument("--scene", default=os.path.join(root, "assets", "scene.json"))
     ap.add_argument("-o", "--output", default=os.path.join(root, "assets", "supershader-contact-sheet.png"))
     args = ap.parse_args()
     if args.count < 1 or args.columns < 1 or args.size < 1:
@@ -156,18 +174,29 @@ def main():
     with tempfile.TemporaryDirectory(prefix="contact_sheet.") as tmp:
         for k in range(args.count):
             frame = args.first + k
-            bound = os.path.join(tmp, "bound.json")
-            run([args.imsynth, "sample", "--seed", str(frame), "--graph", args.graph,
-                 "-o", os.path.join(tmp, "params.json"), "--bound-graph", bound])
-            with open(bound) as f:
-                doc = json.load(f)
-            preview_nodes(doc)
-            with open(bound, "w") as f:
-                json.dump(doc, f)
             png = os.path.join(tmp, "tile.png")
-            run([args.imsynth, "eval-graph", bound, "--socket", "Preview:Result_Color",
-                 "--size", str(args.size), "-o", os.path.join(tmp, "tile.exr"), "--png", png])
-            w, h, rows = read_png(png)
+            if args.render:
+                sub = os.path.join(tmp, "sub.json")
+                run([args.imsynth, "extract", args.graph, "--seed", str(frame), "-o", sub])
+                run([args.imsynth, "render", sub, "--spp", str(args.spp), "--threads", "1",
+                     "--seed", str(frame), "--scene", args.scene,
+                     "-o", os.path.join(tmp, "tile.exr"), "--png", png])
+                w, h, rows = halve(*read_png(png))
+            else:
+                bound = os.path.join(tmp, "bound.json")
+                run([args.imsynth, "sample", "--seed", str(frame), "--graph", args.graph,
+                     "-o", os.path.join(tmp, "params.json"), "--bound-graph", bound])
+                with open(bound) as f:
+                    doc = json.load(f)
+                preview_nodes(doc)
+                with open(bound, "w") as f:
+                    json.dump(doc, f)
+                run([args.imsynth, "eval-graph", bound, "--socket", "Preview:Result_Color",
+                     "--size", str(args.size), "-o", os.path.join(tmp, "tile.exr"), "--png", png])
+                w, h, rows = read_png(png)
+            if (w, h) != (args.size, args.size):
+                raise SystemExit("contact_sheet: frame %d: got a %d x %d tile, expected %d x %d "
+                                 "(--render makes 128 x 128 tiles)" % (frame, w, h, args.size, args.size))
             r, c = divmod(k, cols)
             x0 = gutter + c * (args.size + gutter)
             y0 = gutter + r * (args.size + gutter)
