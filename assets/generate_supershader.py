@@ -822,9 +822,10 @@ pattern of every module is computed, then switched): render the extracted sub-sh
 
 **Contact sheet.** `supershader-contact-sheet.png`: frames 0-63 (`imsynth sample --seed
 0..63`), row-major from the top left, 128 x 128 each, made by `scripts/contact_sheet.py`
-with our CLI. Until the path tracer exists it is a preview, not a render: Base Color
-times a Lambert term of the Bump normal (light from the upper left) - no specular, so
-metals look like their albedo.
+with our CLI. It is a preview, not a render: Base Color times a Lambert term of the
+Bump normal (light from the upper left) - no specular, so metals look like their albedo.
+`scripts/contact_sheet.py --render` path-traces each frame's extracted sub-shader
+instead (about 10 s of CPU a frame at 16 spp here).
 
 ## The 50 parameters
 
