@@ -21,6 +21,10 @@ import_material.py (point samples at the pixel centres) and tests/unit/test_blen
 compares our evaluation of the same graph.json: so the super-shader built in Blender, the
 sub-shader built in Blender and a hand-made Blender material all give our four maps.
 
+Hand-made materials: NAME.json was made and exported in Blender 4.3 and is rendered in 4.3
+only (its exporter writes every 4.x Principled input, which 3.x cannot build); NAME_b34.json
+was made (3.x Musgrave nodes and all) and exported in Blender 3.4, and is rendered in both.
+
 The imsynth binary: --imsynth, else $IMSYNTH, else build*/cli/imsynth under the repository
 root, else `imsynth` on PATH (`make references` runs every gen_*.py without arguments).
 
@@ -71,6 +75,8 @@ POINT_NOTE = ("Raw (unsnapped) coordinates, as the real material uses them; Cycl
               "the other side: up to 0.1% of pixels may differ (max_bad_fraction 0.001).")
 SUPER_NOTE = ("Blender 4.3 only: the Noise Module's Ridged Multifractal has Detail linked "
               "to a parameter, which 3.x's Musgrave (Detail + 1) cannot be built with.")
+MADE4_NOTE = ("4.3 only: 4.3's exporter writes every Principled BSDF input (Coat, Sheen, "
+              "... at their 4.x defaults), which import_material refuses to build in 3.x.")
 SUB_NOTE = ("Exported with 4.x constant folding (imsynth export's default); the 3.4 "
             "reference checks our 3.x evaluation of this same graph.")
 
@@ -165,16 +171,13 @@ def main():
         name = os.path.splitext(os.path.basename(path))[0]
         with open(path) as f:
             data = json.load(f)
-        meta_path = os.path.join(BLENDER_MADE, name + ".versions")
-        versions = BOTH
-        if os.path.exists(meta_path):
-            with open(meta_path) as f:
-                versions = tuple(f.read().split())
+        made_in_3 = name.endswith("_b34")
+        versions = BOTH if made_in_3 else V4
         write_map_cases("blender_made_%s" % name,
                         JsonGraph(data, os.path.relpath(path, REPO)), versions,
                         "Made by hand in Blender (tests/reference/blender_made/"
-                        "make_materials.py), exported by blender/export_material.py. "
-                        + POINT_NOTE)
+                        "make_materials.py), exported by blender/export_material.py from Blender "
+                        + ("3.4. " if made_in_3 else "4.3. " + MADE4_NOTE + " ") + POINT_NOTE)
     return 0
 
 
