@@ -563,7 +563,7 @@ static bool fold_all_constant(fold *x)
     for (int k = 0; k < n->n_out; k++)
         out[k] = outv[k];
     sg_kernel_args a = {.n = 1, .blender = x->mode, .prop = n->prop, .ramp = n->ramp,
-                        .in = in, .out = out, .geom = NULL, .offset = 0};
+                        .in = in, .out = out, .geom = NULL, .offset = 0, .host_fold = true};
     if (!strcmp(t->idname, "ShaderNodeInvert")) {
         /* Cycles folds Invert as interp(c, 1 - c, fac), not the kernel's
          * fac * (1 - c) + (1 - fac) * c: the last bit can differ. */

@@ -94,6 +94,11 @@ typedef struct sg_kernel_args {
      * times, once per offset, and passes the two offset heights as extra inputs after
      * the Bump type's declared ones. */
     int offset;
+    /* Set when the compiler folds a node whose inputs are all constant. Cycles does
+     * that on the host CPU, whose code has no fused multiply-adds, while its render
+     * kernel fuses some: a kernel that writes fmaf() where Blender's kernel fuses must
+     * compute unfused when host_fold is set (kernels/math.c). */
+    bool host_fold;
 } sg_kernel_args;
 
 typedef void (*sg_kernel_fn)(const sg_kernel_args *a);

@@ -51,6 +51,18 @@ static inline float madd(float a, float b, float c) { return fmaf(a, b, c); }
 /* c - a * b, fused (GCC's fnmadd). */
 static inline float nmadd(float a, float b, float c) { return fmaf(-a, b, c); }
 
+/* The same, fused only when `fused`: Cycles evaluates Math and Vector Math on the
+ * render kernel (fused) but constant-folds them on the host CPU, whose code has no
+ * FMA (sg_kernel_args.host_fold). Map Range is never folded and always fuses. */
+static inline float madd_f(bool fused, float a, float b, float c)
+{
+    return fused ? fmaf(a, b, c) : a * b + c;
+}
+static inline float nmadd_f(bool fused, float a, float b, float c)
+{
+    return fused ? fmaf(-a, b, c) : c - a * b;
+}
+
 /* Cycles' min/max/clamp: comparisons, so NaN in `a` yields the other operand. */
 static inline float cy_max(float a, float b) { return a > b ? a : b; }
 static inline float cy_min(float a, float b) { return a < b ? a : b; }
@@ -85,31 +97,31 @@ static inline float safe_asinf(float a) { return asinf(cy_clamp(a, -1.0f, 1.0f))
 static inline float safe_acosf(float a) { return acosf(cy_clamp(a, -1.0f, 1.0f)); }
 static inline float safe_modulo(float a, float b) { return b != 0.0f ? fmodf(a, b) : 0.0f; }
 
-static inline float safe_floored_modulo(float a, float b)
+static inline float safe_floored_modulo(bool fused, float a, float b)
 {
-    return b != 0.0f ? nmadd(floorf(a / b), b, a) : 0.0f;
+    return b != 0.0f ? nmadd_f(fused, floorf(a / b), b, a) : 0.0f;
 }
 
 static inline float fractf(float a) { return a - floorf(a); }
 
-/* wrapf(value, max, min): value wrapped into [min, max). */
-static inline float wrapf(float value, float hi, float lo)
+/* wrapf(fused, value, max, min): value wrapped into [min, max). */
+static inline float wrapf(bool fused, float value, float hi, float lo)
 {
     float range = hi - lo;
-    return range != 0.0f ? nmadd(range, floorf((value - lo) / range), value) : lo;
+    return range != 0.0f ? nmadd_f(fused, range, floorf((value - lo) / range), value) : lo;
 }
 
-static inline float pingpongf(float a, float b)
+static inline float pingpongf(bool fused, float a, float b)
 {
     /* (fract * b) * 2 - b: the last product feeds the subtraction and is fused. */
-    return b != 0.0f ? fabsf(madd(fractf((a - b) / (b * 2.0f)) * b, 2.0f, -b)) : 0.0f;
+    return b != 0.0f ? fabsf(madd_f(fused, fractf((a - b) / (b * 2.0f)) * b, 2.0f, -b)) : 0.0f;
 }
 
-static inline float smoothminf(float a, float b, float k)
+static inline float smoothminf(bool fused, float a, float b, float k)
 {
     if (k != 0.0f) {
         float h = fmaxf(k - fabsf(a - b), 0.0f) / k;
-        return nmadd(h * h * h * k, 1.0f / 6.0f, fminf(a, b));
+        return nmadd_f(fused, h * h * h * k, 1.0f / 6.0f, fminf(a, b));
     }
     return fminf(a, b);
 }
@@ -142,10 +154,10 @@ static inline float dot3(float3 a, float3 b)
 static inline float len3(float3 a) { return sqrtf(dot3(a, a)); }
 
 /* Cycles' SSE cross: msub(a, b.yzx, a.yzx * b), shuffled; msub is an FMA on AVX2. */
-static inline float3 cross3(float3 a, float3 b)
+static inline float3 cross3(bool fused, float3 a, float3 b)
 {
-    return make_float3(fmaf(a.y, b.z, -(a.z * b.y)), fmaf(a.z, b.x, -(a.x * b.z)),
-                       fmaf(a.x, b.y, -(a.y * b.x)));
+    return make_float3(madd_f(fused, a.y, b.z, -(a.z * b.y)), madd_f(fused, a.z, b.x, -(a.x * b.z)),
+                       madd_f(fused, a.x, b.y, -(a.y * b.x)));
 }
 
 static inline float3 safe_normalize3(float3 a)
@@ -161,23 +173,23 @@ static inline float3 normalize3_div(float3 a)
     return make_float3(a.x / t, a.y / t, a.z / t);
 }
 
-static inline float3 reflect3(float3 incident, float3 unit_normal)
+static inline float3 reflect3(bool fused, float3 incident, float3 unit_normal)
 {
     float d = dot3(incident, unit_normal);
     float3 n2 = f3_scale(unit_normal, 2.0f);
-    return make_float3(nmadd(n2.x, d, incident.x), nmadd(n2.y, d, incident.y),
-                       nmadd(n2.z, d, incident.z));
+    return make_float3(nmadd_f(fused, n2.x, d, incident.x), nmadd_f(fused, n2.y, d, incident.y),
+                       nmadd_f(fused, n2.z, d, incident.z));
 }
 
-static inline float3 refract3(float3 incident, float3 normal, float eta)
+static inline float3 refract3(bool fused, float3 incident, float3 normal, float eta)
 {
     float d = dot3(normal, incident);
-    float k = nmadd(eta * eta, nmadd(d, d, 1.0f), 1.0f);
+    float k = nmadd_f(fused, eta * eta, nmadd_f(fused, d, d, 1.0f), 1.0f);
     if (k < 0.0f)
         return make_float3(0.0f, 0.0f, 0.0f);
-    float s = madd(eta, d, sqrtf(k));
-    return make_float3(nmadd(s, normal.x, eta * incident.x), nmadd(s, normal.y, eta * incident.y),
-                       nmadd(s, normal.z, eta * incident.z));
+    float s = madd_f(fused, eta, d, sqrtf(k));
+    return make_float3(nmadd_f(fused, s, normal.x, eta * incident.x), nmadd_f(fused, s, normal.y, eta * incident.y),
+                       nmadd_f(fused, s, normal.z, eta * incident.z));
 }
 
 static inline float3 project3(float3 v, float3 onto)
@@ -250,6 +262,7 @@ static const sg_prop_def math_props[] = {
 static void math_kernel(const sg_kernel_args *a)
 {
     const int n = a->n;
+    const bool fused = !a->host_fold;
     const float *in_a = a->in[0], *in_b = a->in[1], *in_c = a->in[2];
     float *out = a->out[0];
     if (!out)
@@ -261,7 +274,7 @@ static void math_kernel(const sg_kernel_args *a)
     case M_SUBTRACT: MATH_LOOP(a_ - b_);
     case M_MULTIPLY: MATH_LOOP(a_ * b_);
     case M_DIVIDE: MATH_LOOP(safe_divide(a_, b_));
-    case M_MULTIPLY_ADD: MATH_LOOP(madd(a_, b_, c_));
+    case M_MULTIPLY_ADD: MATH_LOOP(madd_f(fused, a_, b_, c_));
     case M_POWER: MATH_LOOP(safe_powf(a_, b_));
     case M_LOGARITHM: MATH_LOOP(safe_logf(a_, b_));
     case M_SQRT: MATH_LOOP(safe_sqrtf(a_));
@@ -274,18 +287,18 @@ static void math_kernel(const sg_kernel_args *a)
     case M_GREATER_THAN: MATH_LOOP(a_ > b_ ? 1.0f : 0.0f);
     case M_SIGN: MATH_LOOP(signum(a_));
     case M_COMPARE: MATH_LOOP(compare(a_, b_, c_));
-    case M_SMOOTH_MIN: MATH_LOOP(smoothminf(a_, b_, c_));
-    case M_SMOOTH_MAX: MATH_LOOP(-smoothminf(-a_, -b_, c_));
+    case M_SMOOTH_MIN: MATH_LOOP(smoothminf(fused, a_, b_, c_));
+    case M_SMOOTH_MAX: MATH_LOOP(-smoothminf(fused, -a_, -b_, c_));
     case M_ROUND: MATH_LOOP(floorf(a_ + 0.5f));
     case M_FLOOR: MATH_LOOP(floorf(a_));
     case M_CEIL: MATH_LOOP(ceilf(a_));
     case M_TRUNC: MATH_LOOP(truncate_toward_zero(a_));
     case M_FRACT: MATH_LOOP(fractf(a_));
     case M_MODULO: MATH_LOOP(safe_modulo(a_, b_));
-    case M_FLOORED_MODULO: MATH_LOOP(safe_floored_modulo(a_, b_));
-    case M_WRAP: MATH_LOOP(wrapf(a_, b_, c_));
+    case M_FLOORED_MODULO: MATH_LOOP(safe_floored_modulo(fused, a_, b_));
+    case M_WRAP: MATH_LOOP(wrapf(fused, a_, b_, c_));
     case M_SNAP: MATH_LOOP(floorf(safe_divide(a_, b_)) * b_);
-    case M_PINGPONG: MATH_LOOP(pingpongf(a_, b_));
+    case M_PINGPONG: MATH_LOOP(pingpongf(fused, a_, b_));
     case M_SINE: MATH_LOOP(sinf(a_));
     case M_COSINE: MATH_LOOP(cosf(a_));
     case M_TANGENT: MATH_LOOP(tanf(a_));
@@ -381,14 +394,14 @@ static inline float3 map3(float3 a, float (*f)(float))
     return make_float3(f(a.x), f(a.y), f(a.z));
 }
 
-static inline float3 reflect_versioned(float3 a, float3 b, bool blender3)
+static inline float3 reflect_versioned(bool fused, float3 a, float3 b, bool blender3)
 {
-    return reflect3(a, blender3 ? normalize3_div(b) : safe_normalize3(b));
+    return reflect3(fused, a, blender3 ? normalize3_div(b) : safe_normalize3(b));
 }
 
-static inline float3 refract_versioned(float3 a, float3 b, float eta, bool blender3)
+static inline float3 refract_versioned(bool fused, float3 a, float3 b, float eta, bool blender3)
 {
-    return refract3(a, blender3 ? normalize3_div(b) : safe_normalize3(b), eta);
+    return refract3(fused, a, blender3 ? normalize3_div(b) : safe_normalize3(b), eta);
 }
 
 /* One loop per operation, like MATH_LOOP: a_, b_, c_ are the three vectors, s_ the
@@ -418,6 +431,7 @@ static inline float3 refract_versioned(float3 a, float3 b, float eta, bool blend
 static void vector_math_kernel(const sg_kernel_args *a)
 {
     const int n = a->n;
+    const bool fused = !a->host_fold;
     const bool blender3 = a->blender == SG_BLENDER_3;
     const float *in_a = a->in[0], *in_b = a->in[1], *in_c = a->in[2], *in_scale = a->in[3];
     float *out_vector = a->out[0], *out_value = a->out[1];
@@ -428,12 +442,12 @@ static void vector_math_kernel(const sg_kernel_args *a)
     case V_MULTIPLY: VECTOR_LOOP(v_ = f3_mul(a_, b_));
     case V_DIVIDE: VECTOR_LOOP(v_ = COMPONENTWISE2(safe_divide));
     case V_MULTIPLY_ADD:
-        VECTOR_LOOP(v_ = make_float3(madd(a_.x, b_.x, c_.x), madd(a_.y, b_.y, c_.y),
-                                     madd(a_.z, b_.z, c_.z)));
-    case V_CROSS_PRODUCT: VECTOR_LOOP(v_ = cross3(a_, b_));
+        VECTOR_LOOP(v_ = make_float3(madd_f(fused, a_.x, b_.x, c_.x), madd_f(fused, a_.y, b_.y, c_.y),
+                                     madd_f(fused, a_.z, b_.z, c_.z)));
+    case V_CROSS_PRODUCT: VECTOR_LOOP(v_ = cross3(fused, a_, b_));
     case V_PROJECT: VECTOR_LOOP(v_ = project3(a_, b_));
-    case V_REFLECT: VECTOR_LOOP(v_ = reflect_versioned(a_, b_, blender3));
-    case V_REFRACT: VECTOR_LOOP(v_ = refract_versioned(a_, b_, s_, blender3));
+    case V_REFLECT: VECTOR_LOOP(v_ = reflect_versioned(fused, a_, b_, blender3));
+    case V_REFRACT: VECTOR_LOOP(v_ = refract_versioned(fused, a_, b_, s_, blender3));
     case V_FACEFORWARD: VECTOR_LOOP(v_ = dot3(c_, b_) < 0.0f ? a_ : f3_scale(a_, -1.0f));
     case V_DOT_PRODUCT: VECTOR_LOOP(value_ = dot3(a_, b_));
     case V_DISTANCE: VECTOR_LOOP(value_ = len3(f3_sub(a_, b_)));
@@ -448,8 +462,8 @@ static void vector_math_kernel(const sg_kernel_args *a)
     case V_FRACTION: VECTOR_LOOP(v_ = map3(a_, fractf));
     case V_MODULO: VECTOR_LOOP(v_ = COMPONENTWISE2(safe_modulo));
     case V_WRAP:
-        VECTOR_LOOP(v_ = make_float3(wrapf(a_.x, b_.x, c_.x), wrapf(a_.y, b_.y, c_.y),
-                                     wrapf(a_.z, b_.z, c_.z)));
+        VECTOR_LOOP(v_ = make_float3(wrapf(fused, a_.x, b_.x, c_.x), wrapf(fused, a_.y, b_.y, c_.y),
+                                     wrapf(fused, a_.z, b_.z, c_.z)));
     case V_SNAP:
         VECTOR_LOOP(v_ = make_float3(floorf(safe_divide(a_.x, b_.x)) * b_.x,
                                      floorf(safe_divide(a_.y, b_.y)) * b_.y,
