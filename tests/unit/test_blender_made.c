@@ -132,7 +132,7 @@ static int compare_map(const char *graph_path, const char *socket, sg_blender_mo
     sg_program *p = sg_compile(g, &ref, 1, &opt, &err);
     sg_graph_free(g);
     if (!p) {
-        snprintf(why, whylen, "%s: %s", graph_path, err.msg);
+        snprintf(why, whylen, "%.500s: %.1000s", graph_path, err.msg);
         return -1;
     }
     int width = sg_socket_type_width(sg_program_output_type(p, 0));
@@ -213,7 +213,7 @@ static int compare_map(const char *graph_path, const char *socket, sg_blender_mo
 static void test_material(void **state)
 {
     const made_material *m = *state;
-    char path[512], exr[512], why[1024];
+    char path[512], exr[512], why[2048];
     const bool made_in_3 = ends_with(m->name, "_b34");
     const char *version = made_in_3 ? "3.4" : "4.3";
     sg_blender_mode mode = made_in_3 ? SG_BLENDER_3 : SG_BLENDER_4;
@@ -279,7 +279,7 @@ int main(void)
             closedir(d);
             return 1;
         }
-        snprintf(mats[n].name, sizeof mats[n].name, "%s", de->d_name);
+        memcpy(mats[n].name, de->d_name, strlen(de->d_name) + 1); /* length checked above */
         n++;
     }
     closedir(d);
