@@ -35,6 +35,9 @@
 #include "shadergraph/kernels/kernel_util.h"
 
 #include <float.h>
+#if defined(__AVX__) || defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 #include <stdbool.h>
 
 /* Property indices (order of voronoi_props). */
@@ -813,11 +816,458 @@ static float voronoi_max_distance(const voronoi_params *p)
 
 /* ---- batch ------------------------------------------------------------------------- */
 
+/* Point i's parameters (clamped as the node clamps them), coordinates and Scale. */
+static inline void read_point(const sg_kernel_args *a, const voronoi_params *base, int i,
+                              voronoi_params *params, vpoint *coordinates, float *scale_out)
+{
+    const int n = a->n, dims = base->dims;
+    const float *const *in = a->in;
+    voronoi_params p = *base;
+    const float scale = in[IN_SCALE][i];
+    p.detail = clampf(in[IN_DETAIL][i], 0.0f, 15.0f);
+    p.roughness = clampf(in[IN_ROUGHNESS][i], 0.0f, 1.0f);
+    p.lacunarity = in[IN_LACUNARITY][i];
+    p.smoothness = clampf(in[IN_SMOOTHNESS][i] / 2.0f, 0.0f, 0.5f);
+    p.exponent = in[IN_EXPONENT][i];
+    p.randomness = clampf(in[IN_RANDOMNESS][i], 0.0f, 1.0f);
+    p.max_distance = 0.0f;
+
+    /* The vector is read for 2D-4D, W for 1D and 4D. */
+    vpoint coord = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    const float w = in[IN_W][i] * scale;
+    if (dims == 1) {
+        coord.v[0] = w;
+    }
+    else {
+        float3 v = f3_load(in[IN_VECTOR], n, i);
+        coord.v[0] = v.x * scale;
+        coord.v[1] = v.y * scale;
+        if (dims >= 3)
+            coord.v[2] = v.z * scale;
+        if (dims == 4)
+            coord.v[3] = w;
+    }
+    *params = p;
+    *coordinates = coord;
+    *scale_out = scale;
+}
+
+/* Point i alone. Inlined once per dimension count, so that `dims` is a constant. */
+static inline void voronoi_point(const sg_kernel_args *a, const voronoi_params *base, int i)
+{
+    const int n = a->n, dims = base->dims;
+    float *const *out = a->out;
+    voronoi_params p;
+    vpoint coord;
+    float scale;
+    read_point(a, base, i, &p, &coord, &scale);
+    const bool blender3 = p.blender3;
+
+    float distance = 0.0f, radius = 0.0f;
+    float color[3] = {0.0f, 0.0f, 0.0f};
+    vpoint position = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    if (p.feature == FEATURE_DISTANCE_TO_EDGE) {
+        p.max_distance = fmaf(0.5f, p.randomness, 0.5f);
+        distance = fractal_distance_to_edge(&p, &coord);
+    }
+    else if (p.feature == FEATURE_N_SPHERE_RADIUS) {
+        radius = voronoi_n_sphere_radius(&p, &coord);
+    }
+    else {
+        p.max_distance = voronoi_max_distance(&p);
+        voronoi_result r = fractal_voronoi(&p, &coord);
+        distance = r.distance;
+        for (int c = 0; c < 3; c++)
+            color[c] = r.color[c];
+        /* safe_divide by the scale, of the float4 position in 4.x, of the
+         * dimension's own vector type in 3.x (which rounds differently). */
+        const int as_dims = blender3 ? dims : 4;
+        for (int c = 0; c < 4; c++)
+            position.v[c] = scale != 0.0f ? div_component(r.position.v[c], scale, as_dims) :
+                                            0.0f;
+    }
+
+    if (out[OUT_DISTANCE])
+        out[OUT_DISTANCE][i] = distance;
+    if (out[OUT_COLOR])
+        f3_store(out[OUT_COLOR], n, i, make_float3(color[0], color[1], color[2]));
+    if (out[OUT_POSITION])
+        f3_store(out[OUT_POSITION], n, i,
+                 make_float3(position.v[0], position.v[1], position.v[2]));
+    if (out[OUT_W])
+        out[OUT_W][i] = position.v[3];
+    if (out[OUT_RADIUS])
+        out[OUT_RADIUS][i] = radius;
+}
+
+/* ---- F1 of many points at once ------------------------------------------------------
+ *
+ * The batch kernel evaluates F1 for VORONOI_LANES points side by side when every one of
+ * them needs a single octave (Blender 3.x, or Detail or Roughness 0: the node's
+ * defaults). Lane k scans point k's cells in the scalar order with the scalar
+ * operations (the same hashes, distance sums in the same order, a strict `<` so the
+ * first of equal distances wins), so its results are the bits of voronoi_batch's for
+ * that point alone. 16 lanes with AVX-512, else 8; without AVX the compiler lowers the
+ * vector types to scalar code. */
+#if defined(__AVX512F__)
+#define VORONOI_LANES 16
+#else
+#define VORONOI_LANES 8
+#endif
+typedef float lane_f __attribute__((vector_size(4 * VORONOI_LANES)));
+typedef uint32_t lane_u __attribute__((vector_size(4 * VORONOI_LANES)));
+
+static inline lane_f lane_splat(float v) { return (lane_f){0} + v; }
+
+static inline lane_f lane_select(lane_u mask, lane_f a, lane_f b)
+{
+    return (lane_f)(((lane_u)a & mask) | ((lane_u)b & ~mask));
+}
+
+static inline lane_f lane_fma(lane_f a, lane_f b, lane_f c)
+{
+#if VORONOI_LANES == 16
+    return (lane_f)_mm512_fmadd_ps((__m512)a, (__m512)b, (__m512)c);
+#elif defined(__FMA__) && defined(__AVX__)
+    return (lane_f)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
+#else
+    lane_f r;
+    for (int k = 0; k < VORONOI_LANES; k++)
+        r[k] = fmaf(a[k], b[k], c[k]);
+    return r;
+#endif
+}
+
+static inline lane_f lane_abs(lane_f x) { return (lane_f)((lane_u)x & 0x7fffffffu); }
+
+/* floorf and sqrtf of each lane (both exact operations, so any correct one will do). */
+static inline lane_f lane_floor(lane_f x)
+{
+#if VORONOI_LANES == 16
+    return (lane_f)_mm512_roundscale_ps((__m512)x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+#elif defined(__AVX__)
+    return (lane_f)_mm256_floor_ps((__m256)x);
+#else
+    for (int k = 0; k < VORONOI_LANES; k++)
+        x[k] = floorf(x[k]);
+    return x;
+#endif
+}
+
+static inline lane_f lane_sqrt(lane_f x)
+{
+#if VORONOI_LANES == 16
+    return (lane_f)_mm512_sqrt_ps((__m512)x);
+#elif defined(__AVX__)
+    return (lane_f)_mm256_sqrt_ps((__m256)x);
+#else
+    for (int k = 0; k < VORONOI_LANES; k++)
+        x[k] = sqrtf(x[k]);
+    return x;
+#endif
+}
+
+/* kernel_util.h's lookup3 hashes per lane, mapped to [0, 1] as uint_to_unit_float. */
+static inline lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
+
+#define LANE_FINAL(a, b, c)                                                                \
+    do {                                                                                   \
+        c ^= b; c -= lane_rot(b, 14);                                                       \
+        a ^= c; a -= lane_rot(c, 11);                                                       \
+        b ^= a; b -= lane_rot(a, 25);                                                       \
+        c ^= b; c -= lane_rot(b, 16);                                                       \
+        a ^= c; a -= lane_rot(c, 4);                                                        \
+        b ^= a; b -= lane_rot(a, 14);                                                       \
+        c ^= b; c -= lane_rot(b, 24);                                                       \
+    } while (0)
+
+static inline lane_u lane_hash_init(uint32_t words)
+{
+    return (lane_u){0} + (0xdeadbeefu + (words << 2) + 13u);
+}
+
+static inline lane_f lane_unit(lane_u c)
+{
+    return __builtin_convertvector(c, lane_f) * (1.0f / (float)0xFFFFFFFFu);
+}
+
+static inline lane_f lane_hash1(lane_u kx)
+{
+    lane_u a = lane_hash_init(1u), b = a, c = a;
+    a += kx;
+    LANE_FINAL(a, b, c);
+    return lane_unit(c);
+}
+
+static inline lane_f lane_hash2(lane_u kx, lane_u ky)
+{
+    lane_u a = lane_hash_init(2u), b = a, c = a;
+    b += ky;
+    a += kx;
+    LANE_FINAL(a, b, c);
+    return lane_unit(c);
+}
+
+static inline lane_f lane_hash3(lane_u kx, lane_u ky, lane_u kz)
+{
+    lane_u a = lane_hash_init(3u), b = a, c = a;
+    c += kz;
+    b += ky;
+    a += kx;
+    LANE_FINAL(a, b, c);
+    return lane_unit(c);
+}
+
+static inline lane_f lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
+{
+    lane_u a = lane_hash_init(4u), b = a, c = a;
+    a += kx;
+    b += ky;
+    c += kz;
+    a -= c; a ^= lane_rot(c, 4);  c += b;
+    b -= a; b ^= lane_rot(a, 6);  a += c;
+    c -= b; c ^= lane_rot(b, 8);  b += a;
+    a -= c; a ^= lane_rot(c, 16); c += b;
+    b -= a; b ^= lane_rot(a, 19); a += c;
+    c -= b; c ^= lane_rot(b, 4);  b += a;
+    a += kw;
+    LANE_FINAL(a, b, c);
+    return lane_unit(c);
+}
+
+/* cell_jitter of each lane's cell (keys: the cell coordinates' bits). */
+static inline void lane_jitter(const lane_u *k, int dims, lane_f *j)
+{
+    const lane_u one = (lane_u){0} + float_bits(1.0f), two = (lane_u){0} + float_bits(2.0f);
+    switch (dims) {
+    case 1:
+        j[0] = lane_hash1(k[0]);
+        break;
+    case 2:
+        j[0] = lane_hash2(k[0], k[1]);
+        j[1] = lane_hash3(k[0], k[1], one);
+        break;
+    case 3:
+        j[0] = lane_hash3(k[0], k[1], k[2]);
+        j[1] = lane_hash4(k[0], k[1], k[2], one);
+        j[2] = lane_hash4(k[0], k[1], k[2], two);
+        break;
+    default:
+        j[0] = lane_hash4(k[0], k[1], k[2], k[3]);
+        j[1] = lane_hash4(k[3], k[0], k[1], k[2]);
+        j[2] = lane_hash4(k[2], k[3], k[0], k[1]);
+        j[3] = lane_hash4(k[1], k[2], k[3], k[0]);
+        break;
+    }
+}
+
+/* cell_color of each lane's cell. */
+static inline void lane_cell_color(const lane_u *k, int dims, lane_f *color)
+{
+    const lane_u one = (lane_u){0} + float_bits(1.0f), two = (lane_u){0} + float_bits(2.0f);
+    switch (dims) {
+    case 1:
+        color[0] = lane_hash1(k[0]);
+        color[1] = lane_hash2(k[0], one);
+        color[2] = lane_hash2(k[0], two);
+        break;
+    case 2:
+        color[0] = lane_hash2(k[0], k[1]);
+        color[1] = lane_hash3(k[0], k[1], one);
+        color[2] = lane_hash3(k[0], k[1], two);
+        break;
+    case 3:
+        lane_jitter(k, 3, color);
+        break;
+    default:
+        color[0] = lane_hash4(k[0], k[1], k[2], k[3]);
+        color[1] = lane_hash4(k[2], k[0], k[3], k[1]);
+        color[2] = lane_hash4(k[3], k[2], k[1], k[0]);
+        break;
+    }
+}
+
+/* voronoi_distance(a, b) per lane; Minkowski's powf one lane at a time. */
+static inline lane_f lane_distance(const lane_f *a, const lane_f *b, int dims, int metric,
+                                   const float *exponent)
+{
+    if (dims == 1)
+        return lane_abs(b[0] - a[0]);
+    lane_f d[4];
+    for (int c = 0; c < dims; c++)
+        d[c] = a[c] - b[c];
+    switch (metric) {
+    case METRIC_EUCLIDEAN: {
+        /* dot_n's orders: 2D fuses its first product, 3D and 4D do not. */
+        lane_f s;
+        if (dims == 2)
+            s = lane_fma(d[0], d[0], d[1] * d[1]);
+        else if (dims == 3)
+            s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        else
+            s = (d[0] * d[0] + d[1] * d[1]) + (d[2] * d[2] + d[3] * d[3]);
+        return lane_sqrt(s);
+    }
+    case METRIC_MANHATTAN: {
+        lane_f s = lane_abs(d[0]);
+        for (int c = 1; c < dims; c++)
+            s += lane_abs(d[c]);
+        return s;
+    }
+    case METRIC_CHEBYCHEV: {
+        lane_f m = lane_abs(d[dims - 1]);
+        for (int c = dims - 2; c >= 0; c--) {
+            lane_f x = lane_abs(d[c]);
+            m = lane_select((lane_u)(x > m), x, m);
+        }
+        return m;
+    }
+    case METRIC_MINKOWSKI: {
+        lane_f r;
+        for (int k = 0; k < VORONOI_LANES; k++) {
+            float s = powf(fabsf(d[0][k]), exponent[k]);
+            for (int c = 1; c < dims; c++)
+                s += powf(fabsf(d[c][k]), exponent[k]);
+            r[k] = powf(s, 1.0f / exponent[k]);
+        }
+        return r;
+    }
+    default:
+        return lane_splat(0.0f);
+    }
+}
+
+/* voronoi_f1 of each lane's coordinates; position as to_position lays it out. */
+static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
+                                   lane_f randomness, const float *exponent, lane_f *distance,
+                                   lane_f *color, lane_f *position)
+{
+    const int dims = p->dims;
+    lane_f cell[4], local[4], zero = lane_splat(0.0f);
+    for (int c = 0; c < dims; c++) {
+        cell[c] = lane_floor(coord[c]);
+        local[c] = coord[c] - cell[c];
+    }
+
+    lane_f min_distance = lane_splat(search_start(p));
+    lane_f target_offset[4] = {zero, zero, zero, zero}, target_point[4] = {zero, zero, zero, zero};
+    int o[4] = {-1, -1, -1, -1};
+    const int n = scan_count(1, dims);
+    for (int idx = 0; idx < n; idx++) {
+        lane_f offset[4], pt[4], j[4];
+        lane_u key[4];
+        for (int c = 0; c < dims; c++) {
+            offset[c] = lane_splat((float)o[c]);
+            key[c] = (lane_u)(cell[c] + offset[c]);
+        }
+        lane_jitter(key, dims, j);
+        for (int c = 0; c < dims; c++)
+            pt[c] = lane_fma(j[c], randomness, offset[c]);
+        lane_f d = lane_distance(pt, local, dims, p->metric, exponent);
+        lane_u closer = (lane_u)(d < min_distance);
+        min_distance = lane_select(closer, d, min_distance);
+        for (int c = 0; c < dims; c++) {
+            target_offset[c] = lane_select(closer, offset[c], target_offset[c]);
+            target_point[c] = lane_select(closer, pt[c], target_point[c]);
+        }
+        for (int c = 0; c < dims && ++o[c] > 1; c++)
+            o[c] = -1;
+    }
+
+    *distance = min_distance;
+    lane_u key[4];
+    lane_f abs_point[4] = {zero, zero, zero, zero};
+    for (int c = 0; c < dims; c++) {
+        key[c] = (lane_u)(cell[c] + target_offset[c]);
+        abs_point[c] = target_point[c] + cell[c];
+    }
+    if (color)
+        lane_cell_color(key, dims, color);
+    switch (dims) {
+    case 1:
+        position[0] = position[1] = position[2] = zero;
+        position[3] = abs_point[0];
+        break;
+    case 2:
+        position[0] = abs_point[0];
+        position[1] = abs_point[1];
+        position[2] = position[3] = zero;
+        break;
+    case 3:
+        for (int c = 0; c < 3; c++)
+            position[c] = abs_point[c];
+        position[3] = lane_splat(1.0f);
+        break;
+    default:
+        for (int c = 0; c < 4; c++)
+            position[c] = abs_point[c];
+        break;
+    }
+}
+
+/* Points first .. first + VORONOI_LANES - 1 of the batch side by side, if they all need
+ * F1 with a single octave; false (nothing written) otherwise. What voronoi_batch computes
+ * for each of them. */
+static inline bool voronoi_lanes(const sg_kernel_args *a, const voronoi_params *base, int first)
+{
+    enum { L = VORONOI_LANES };
+    const int n = a->n, dims = base->dims;
+    if (base->feature != FEATURE_F1)
+        return false;
+    lane_f coord[4] = {lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f)};
+    lane_f randomness, scale, max_distance;
+    float exponent[L];
+    for (int k = 0; k < L; k++) {
+        voronoi_params p;
+        vpoint x;
+        float s;
+        read_point(a, base, first + k, &p, &x, &s);
+        if (!(p.blender3 || p.detail == 0.0f || p.roughness == 0.0f))
+            return false; /* several octaves */
+        for (int c = 0; c < dims; c++)
+            coord[c][k] = x.v[c];
+        randomness[k] = p.randomness;
+        exponent[k] = p.exponent;
+        scale[k] = s;
+        max_distance[k] = voronoi_max_distance(&p);
+    }
+
+    lane_f distance, color[3], position[4];
+    lane_voronoi_f1(base, coord, randomness, exponent, &distance,
+                    a->out[OUT_COLOR] ? color : NULL, position);
+    /* fractal_voronoi's single octave: max_amplitude 1. */
+    if (base->normalize && !base->blender3)
+        distance /= 1.0f * max_distance;
+    const int as_dims = base->blender3 ? dims : 4;
+    const lane_u scaled = (lane_u)(scale != 0.0f);
+    for (int c = 0; c < 4; c++) {
+        lane_f divided = (as_dims == 2 || as_dims == 4) ? position[c] * (1.0f / scale)
+                                                        : position[c] / scale;
+        position[c] = lane_select(scaled, divided, lane_splat(0.0f));
+    }
+
+    float *const *out = a->out;
+    for (int k = 0; k < L; k++) {
+        int i = first + k;
+        if (out[OUT_DISTANCE])
+            out[OUT_DISTANCE][i] = distance[k];
+        if (out[OUT_COLOR])
+            f3_store(out[OUT_COLOR], n, i, make_float3(color[0][k], color[1][k], color[2][k]));
+        if (out[OUT_POSITION])
+            f3_store(out[OUT_POSITION], n, i,
+                     make_float3(position[0][k], position[1][k], position[2][k]));
+        if (out[OUT_W])
+            out[OUT_W][i] = position[3][k];
+        if (out[OUT_RADIUS])
+            out[OUT_RADIUS][i] = 0.0f;
+    }
+    return true;
+}
+
 /* Inlined once per dimension count, so the per-point code sees `dims` as a constant. */
 static inline void voronoi_batch(const sg_kernel_args *a, int dims)
 {
     const int n = a->n;
-    const float *const *in = a->in;
     float *const *out = a->out;
     const bool blender3 = a->blender == SG_BLENDER_3;
 
@@ -829,69 +1279,16 @@ static inline void voronoi_batch(const sg_kernel_args *a, int dims)
     base.normalize = a->prop[PROP_NORMALIZE] != 0;
     base.want_color = out[OUT_COLOR] != NULL;
 
-    for (int i = 0; i < n; i++) {
-        voronoi_params p = base;
-        const float scale = in[IN_SCALE][i];
-        p.detail = clampf(in[IN_DETAIL][i], 0.0f, 15.0f);
-        p.roughness = clampf(in[IN_ROUGHNESS][i], 0.0f, 1.0f);
-        p.lacunarity = in[IN_LACUNARITY][i];
-        p.smoothness = clampf(in[IN_SMOOTHNESS][i] / 2.0f, 0.0f, 0.5f);
-        p.exponent = in[IN_EXPONENT][i];
-        p.randomness = clampf(in[IN_RANDOMNESS][i], 0.0f, 1.0f);
-        p.max_distance = 0.0f;
-
-        /* The vector is read for 2D-4D, W for 1D and 4D. */
-        vpoint coord = {{0.0f, 0.0f, 0.0f, 0.0f}};
-        const float w = in[IN_W][i] * scale;
-        if (dims == 1) {
-            coord.v[0] = w;
-        }
-        else {
-            float3 v = f3_load(in[IN_VECTOR], n, i);
-            coord.v[0] = v.x * scale;
-            coord.v[1] = v.y * scale;
-            if (dims >= 3)
-                coord.v[2] = v.z * scale;
-            if (dims == 4)
-                coord.v[3] = w;
-        }
-
-        float distance = 0.0f, radius = 0.0f;
-        float color[3] = {0.0f, 0.0f, 0.0f};
-        vpoint position = {{0.0f, 0.0f, 0.0f, 0.0f}};
-        if (p.feature == FEATURE_DISTANCE_TO_EDGE) {
-            p.max_distance = fmaf(0.5f, p.randomness, 0.5f);
-            distance = fractal_distance_to_edge(&p, &coord);
-        }
-        else if (p.feature == FEATURE_N_SPHERE_RADIUS) {
-            radius = voronoi_n_sphere_radius(&p, &coord);
-        }
-        else {
-            p.max_distance = voronoi_max_distance(&p);
-            voronoi_result r = fractal_voronoi(&p, &coord);
-            distance = r.distance;
-            for (int c = 0; c < 3; c++)
-                color[c] = r.color[c];
-            /* safe_divide by the scale, of the float4 position in 4.x, of the
-             * dimension's own vector type in 3.x (which rounds differently). */
-            const int as_dims = blender3 ? dims : 4;
-            for (int c = 0; c < 4; c++)
-                position.v[c] = scale != 0.0f ? div_component(r.position.v[c], scale, as_dims) :
-                                                0.0f;
-        }
-
-        if (out[OUT_DISTANCE])
-            out[OUT_DISTANCE][i] = distance;
-        if (out[OUT_COLOR])
-            f3_store(out[OUT_COLOR], n, i, make_float3(color[0], color[1], color[2]));
-        if (out[OUT_POSITION])
-            f3_store(out[OUT_POSITION], n, i,
-                     make_float3(position.v[0], position.v[1], position.v[2]));
-        if (out[OUT_W])
-            out[OUT_W][i] = position.v[3];
-        if (out[OUT_RADIUS])
-            out[OUT_RADIUS][i] = radius;
-    }
+    /* Whole groups side by side where the lanes path applies, the rest point by point;
+     * both give the same bits (test_voronoi_batch). A one-point batch, as the pointwise
+     * evaluator runs, takes the point path. */
+    int i = 0;
+    for (; i + VORONOI_LANES <= n; i += VORONOI_LANES)
+        if (!voronoi_lanes(a, &base, i))
+            for (int k = i; k < i + VORONOI_LANES; k++)
+                voronoi_point(a, &base, k);
+    for (; i < n; i++)
+        voronoi_point(a, &base, i);
 }
 
 static void voronoi_kernel_1d(const sg_kernel_args *a) { voronoi_batch(a, 1); }
