@@ -41,6 +41,13 @@
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
+/* Without AVX, GCC warns (-Wpsabi) that functions taking or returning 32-byte vectors
+ * have no agreed ABI; every such function here is static, so no call crosses the file.
+ * The pragma must precede the first of them. */
+#if defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
 /* ---- properties ------------------------------------------------------------------ */
 
 static const char *const noise_dimensions_values[] = {"1D", "2D", "3D", "4D", NULL};
@@ -169,9 +176,9 @@ NOISE_INLINE float perlin_2d(float x, float y, bool b3)
 typedef uint32_t u32x8 __attribute__((vector_size(32)));
 typedef float f32x8 __attribute__((vector_size(32)));
 
-static inline u32x8 rot8(u32x8 x, int k) { return (x << k) | (x >> (32 - k)); }
+NOISE_INLINE u32x8 rot8(u32x8 x, int k) { return (x << k) | (x >> (32 - k)); }
 
-static inline u32x8 hash_uint3_x8(u32x8 kx, u32x8 ky, u32x8 kz)
+NOISE_INLINE u32x8 hash_uint3_x8(u32x8 kx, u32x8 ky, u32x8 kz)
 {
     u32x8 a, b, c;
     a = b = c = (u32x8){0} + (0xdeadbeefu + (3u << 2) + 13u);
@@ -188,13 +195,13 @@ static inline u32x8 hash_uint3_x8(u32x8 kx, u32x8 ky, u32x8 kz)
     return c;
 }
 
-static inline f32x8 select8(u32x8 mask, f32x8 a, f32x8 b)
+NOISE_INLINE f32x8 select8(u32x8 mask, f32x8 a, f32x8 b)
 {
     return (f32x8)(((u32x8)a & mask) | ((u32x8)b & ~mask));
 }
 
 /* Cycles' 3D gradient (hash picks two of x, y, z and their signs), per lane. */
-static inline f32x8 grad3_x8(u32x8 hash, f32x8 x, f32x8 y, f32x8 z)
+NOISE_INLINE f32x8 grad3_x8(u32x8 hash, f32x8 x, f32x8 y, f32x8 z)
 {
     u32x8 h = hash & 15u;
     f32x8 u = select8((u32x8)(h < 8u), x, y);
@@ -204,7 +211,7 @@ static inline f32x8 grad3_x8(u32x8 hash, f32x8 x, f32x8 y, f32x8 z)
     return (f32x8)((u32x8)u ^ su) + (f32x8)((u32x8)v ^ sv);
 }
 
-static inline u32x8 hash_uint4_x8(u32x8 kx, u32x8 ky, u32x8 kz, u32x8 kw)
+NOISE_INLINE u32x8 hash_uint4_x8(u32x8 kx, u32x8 ky, u32x8 kz, u32x8 kw)
 {
     u32x8 a, b, c;
     a = b = c = (u32x8){0} + (0xdeadbeefu + (4u << 2) + 13u);
@@ -228,7 +235,7 @@ static inline u32x8 hash_uint4_x8(u32x8 kx, u32x8 ky, u32x8 kz, u32x8 kw)
     return c;
 }
 
-static inline f32x8 grad4_x8(u32x8 hash, f32x8 x, f32x8 y, f32x8 z, f32x8 w)
+NOISE_INLINE f32x8 grad4_x8(u32x8 hash, f32x8 x, f32x8 y, f32x8 z, f32x8 w)
 {
     u32x8 h = hash & 31u;
     f32x8 u = select8((u32x8)(h < 24u), x, y);
@@ -359,9 +366,9 @@ static float perlin_4d_v3(npoint p)
 
 typedef int32_t i32x8 __attribute__((vector_size(32)));
 
-static inline f32x8 splat8(float v) { return (f32x8){0} + v; }
+NOISE_INLINE f32x8 splat8(float v) { return (f32x8){0} + v; }
 
-static inline f32x8 fma8(f32x8 a, f32x8 b, f32x8 c)
+NOISE_INLINE f32x8 fma8(f32x8 a, f32x8 b, f32x8 c)
 {
 #if defined(__FMA__) && defined(__AVX__)
     return (f32x8)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
@@ -375,7 +382,7 @@ static inline f32x8 fma8(f32x8 a, f32x8 b, f32x8 c)
 
 /* floor_frac of each lane (see there): conversions are clamped into range first, and
  * selections are masks, so no lane has undefined behaviour. */
-static inline f32x8 floor_frac8(f32x8 x, u32x8 *cell)
+NOISE_INLINE f32x8 floor_frac8(f32x8 x, u32x8 *cell)
 {
     const f32x8 two23 = splat8(8388608.0f);
     f32x8 xc = select8((u32x8)(x >= -two23), x, -two23);
@@ -392,13 +399,13 @@ static inline f32x8 floor_frac8(f32x8 x, u32x8 *cell)
     return x - f;
 }
 
-static inline f32x8 fade8(f32x8 t)
+NOISE_INLINE f32x8 fade8(f32x8 t)
 {
     f32x8 b = fma8(t, fma8(t, splat8(6.0f), splat8(-15.0f)), splat8(10.0f));
     return (t * t) * (t * b);
 }
 
-static inline f32x8 simd_mix8(f32x8 a, f32x8 b, f32x8 t, bool b3)
+NOISE_INLINE f32x8 simd_mix8(f32x8 a, f32x8 b, f32x8 t, bool b3)
 {
     return b3 ? fma8(t, b, (splat8(1.0f) - t) * a) : fma8(t, b - a, a);
 }
@@ -474,10 +481,10 @@ typedef struct lane_point {
     lane_f x, y, z, w;
 } lane_point;
 
-static inline lane_f lane_splat(float v) { return (lane_f){0} + v; }
-static inline lane_u lane_splat_u(uint32_t v) { return (lane_u){0} + v; }
+NOISE_INLINE lane_f lane_splat(float v) { return (lane_f){0} + v; }
+NOISE_INLINE lane_u lane_splat_u(uint32_t v) { return (lane_u){0} + v; }
 
-static inline lane_f lane_fma(lane_f a, lane_f b, lane_f c)
+NOISE_INLINE lane_f lane_fma(lane_f a, lane_f b, lane_f c)
 {
 #if NOISE_LANES == 16
     return (lane_f)_mm512_fmadd_ps((__m512)a, (__m512)b, (__m512)c);
@@ -492,7 +499,7 @@ static inline lane_f lane_fma(lane_f a, lane_f b, lane_f c)
 }
 
 /* Lanes of a where mask is all ones, of b where it is zero. */
-static inline lane_f lane_select(lane_u mask, lane_f a, lane_f b)
+NOISE_INLINE lane_f lane_select(lane_u mask, lane_f a, lane_f b)
 {
     return (lane_f)(((lane_u)a & mask) | ((lane_u)b & ~mask));
 }
@@ -500,7 +507,7 @@ static inline lane_f lane_select(lane_u mask, lane_f a, lane_f b)
 /* floor_frac of each lane: floor rounds as floorf (keeping -0 and NaN), and the
  * truncating conversion yields INT32_MIN for NaN and out-of-range values, as the scalar
  * code's explicit test does. */
-static inline lane_f lane_floor_frac(lane_f x, lane_u *cell)
+NOISE_INLINE lane_f lane_floor_frac(lane_f x, lane_u *cell)
 {
 #if NOISE_LANES == 16
     lane_f f = (lane_f)_mm512_roundscale_ps((__m512)x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
@@ -520,24 +527,24 @@ static inline lane_f lane_floor_frac(lane_f x, lane_u *cell)
     return x - f;
 }
 
-static inline lane_f lane_fade_scalar(lane_f t)
+NOISE_INLINE lane_f lane_fade_scalar(lane_f t)
 {
     return t * t * t * lane_fma(t, lane_fma(t, lane_splat(6.0f), lane_splat(-15.0f)),
                                 lane_splat(10.0f));
 }
 
-static inline lane_f lane_fade_simd(lane_f t)
+NOISE_INLINE lane_f lane_fade_simd(lane_f t)
 {
     lane_f b = lane_fma(t, lane_fma(t, lane_splat(6.0f), lane_splat(-15.0f)), lane_splat(10.0f));
     return (t * t) * (t * b);
 }
 
-static inline lane_f lane_mix(lane_f a, lane_f b, lane_f t, bool b3)
+NOISE_INLINE lane_f lane_mix(lane_f a, lane_f b, lane_f t, bool b3)
 {
     return b3 ? lane_fma(t, b, (lane_splat(1.0f) - t) * a) : lane_fma(t, b - a, a);
 }
 
-static inline lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
+NOISE_INLINE lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
 
 #define LANE_HASH_MIX(a, b, c)                                                             \
     do {                                                                                   \
@@ -561,7 +568,7 @@ static inline lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k
     } while (0)
 
 /* hash_uint .. hash_uint4 of kernel_util.h, per lane. */
-static inline lane_u lane_hash1(lane_u kx)
+NOISE_INLINE lane_u lane_hash1(lane_u kx)
 {
     lane_u a, b, c;
     a = b = c = lane_splat_u(0xdeadbeefu + (1u << 2) + 13u);
@@ -570,7 +577,7 @@ static inline lane_u lane_hash1(lane_u kx)
     return c;
 }
 
-static inline lane_u lane_hash2(lane_u kx, lane_u ky)
+NOISE_INLINE lane_u lane_hash2(lane_u kx, lane_u ky)
 {
     lane_u a, b, c;
     a = b = c = lane_splat_u(0xdeadbeefu + (2u << 2) + 13u);
@@ -580,7 +587,7 @@ static inline lane_u lane_hash2(lane_u kx, lane_u ky)
     return c;
 }
 
-static inline lane_u lane_hash3(lane_u kx, lane_u ky, lane_u kz)
+NOISE_INLINE lane_u lane_hash3(lane_u kx, lane_u ky, lane_u kz)
 {
     lane_u a, b, c;
     a = b = c = lane_splat_u(0xdeadbeefu + (3u << 2) + 13u);
@@ -591,7 +598,7 @@ static inline lane_u lane_hash3(lane_u kx, lane_u ky, lane_u kz)
     return c;
 }
 
-static inline lane_u lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
+NOISE_INLINE lane_u lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
 {
     lane_u a, b, c;
     a = b = c = lane_splat_u(0xdeadbeefu + (4u << 2) + 13u);
@@ -605,14 +612,14 @@ static inline lane_u lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
 }
 
 /* The gradients of grad1 .. grad4 (sign flips as sign-bit xors). */
-static inline lane_f lane_grad1(lane_u hash)
+NOISE_INLINE lane_f lane_grad1(lane_u hash)
 {
     lane_u h = hash & 15u;
     lane_f g = __builtin_convertvector((lane_i)(1u + (h & 7u)), lane_f);
     return (lane_f)((lane_u)g ^ ((h & 8u) << 28));
 }
 
-static inline lane_f lane_grad2(lane_u hash, lane_f x, lane_f y)
+NOISE_INLINE lane_f lane_grad2(lane_u hash, lane_f x, lane_f y)
 {
     lane_u h = hash & 7u;
     lane_u first = (lane_u)(h < 4u);
@@ -621,7 +628,7 @@ static inline lane_f lane_grad2(lane_u hash, lane_f x, lane_f y)
     return (lane_f)((lane_u)u ^ ((h & 1u) << 31)) + (lane_f)((lane_u)v ^ ((h & 2u) << 30));
 }
 
-static inline lane_f lane_grad3(lane_u hash, lane_f x, lane_f y, lane_f z)
+NOISE_INLINE lane_f lane_grad3(lane_u hash, lane_f x, lane_f y, lane_f z)
 {
 #if NOISE_LANES == 16
     /* The same selections with AVX-512 mask registers: a compare and a blend each, where
@@ -647,7 +654,7 @@ static inline lane_f lane_grad3(lane_u hash, lane_f x, lane_f y, lane_f z)
 #endif
 }
 
-static inline lane_f lane_grad4(lane_u hash, lane_f x, lane_f y, lane_f z, lane_f w)
+NOISE_INLINE lane_f lane_grad4(lane_u hash, lane_f x, lane_f y, lane_f z, lane_f w)
 {
     lane_u h = hash & 31u;
     lane_f u = lane_select((lane_u)(h < 24u), x, y);
@@ -725,7 +732,7 @@ NOISE_INLINE lane_f lane_perlin_4d(lane_f x, lane_f y, lane_f z, lane_f w, bool 
 }
 
 /* wrap_coordinate per lane; the fmodf of the rare far lanes is done one at a time. */
-static inline lane_f lane_wrap(lane_f p)
+NOISE_INLINE lane_f lane_wrap(lane_f p)
 {
     lane_f magnitude = (lane_f)((lane_u)p & 0x7fffffffu);
 #if NOISE_LANES == 16
@@ -744,7 +751,7 @@ static inline lane_f lane_wrap(lane_f p)
     return p;
 }
 
-static inline lane_f lane_finite_or_zero(lane_f v)
+NOISE_INLINE lane_f lane_finite_or_zero(lane_f v)
 {
     lane_f magnitude = (lane_f)((lane_u)v & 0x7fffffffu);
     return lane_select((lane_u)(magnitude < __builtin_inff()), v, lane_splat(0.0f));
@@ -1310,7 +1317,8 @@ static inline lane_point lp_scale(lane_point p, lane_f s)
  * Perlin values t[i] of octaves i < most: lane k sums its own octaves i <= n_k with the
  * scalar code's operations and takes its fractional octave from t[n_k + 1]; both
  * endings are computed and each lane keeps the one its Detail selects. */
-static lane_f lane_fbm(const noise_node *nn, const noise_inputs *in, const lane_f *t, int most)
+static void lane_fbm(const noise_node *nn, const noise_inputs *in, const lane_f *t, int most,
+                     lane_f *value)
 {
     const noise_mode *m = &nn->mode;
     lane_i n;
@@ -1361,7 +1369,7 @@ static lane_f lane_fbm(const noise_node *nn, const noise_inputs *in, const lane_
         whole = sum;
         with_fraction = lane_fma(rmd, sum2 - sum, sum);
     }
-    return lane_select((lane_u)(rmd != 0.0f), with_fraction, whole);
+    *value = lane_select((lane_u)(rmd != 0.0f), with_fraction, whole);
 }
 
 /* The NOISE_LANES points first, first + 1, ... of the batch side by side: what
@@ -1438,11 +1446,15 @@ static void noise_lanes(const noise_node *nn, const sg_kernel_args *a, int first
 
     /* fBM, the usual case: combined in vector form. */
     if (nn->mode.blender3 ? !nn->as_musgrave : nn->type == TYPE_FBM) {
-        lane_f fac = lane_fbm(nn, in, t[0], most);
+        lane_f fac, channel;
+        lane_fbm(nn, in, t[0], most, &fac);
         for (int k = 0; fac_out && k < L; k++)
             fac_out[first + k] = fac[k];
         for (int s = 0; color_out && s < 3; s++) {
-            lane_f channel = s == 0 ? fac : lane_fbm(nn, in, t[s], most);
+            if (s == 0)
+                channel = fac;
+            else
+                lane_fbm(nn, in, t[s], most, &channel);
             for (int k = 0; k < L; k++)
                 color_out[(size_t)s * (size_t)n + (size_t)(first + k)] = channel[k];
         }

@@ -40,6 +40,13 @@
 #endif
 #include <stdbool.h>
 
+/* Without AVX, GCC warns (-Wpsabi) that functions taking or returning 32-byte vectors
+ * have no agreed ABI; every such function here is static, so no call crosses the file.
+ * The pragma must precede the first of them. */
+#if defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
 /* Property indices (order of voronoi_props). */
 enum { PROP_DIMENSIONS, PROP_DISTANCE, PROP_FEATURE, PROP_NORMALIZE };
 
