@@ -28,7 +28,11 @@
  * Perlin evaluations at points known in advance, so each point first lays out all its
  * octave points, has their noise computed eight points to an AVX vector (3D), and then
  * combines the values serially in Cycles' order. Lanes do exactly the scalar operations,
- * so results are the same bits as one point at a time.
+ * so results are the same bits as one point at a time. That is the path of one-point
+ * batches (the pointwise evaluator) and of a batch's last few points; whole groups of a
+ * batch are evaluated 16 shading points side by side instead (8 without AVX-512: see
+ * noise_lanes), again with the scalar operations per lane, which tests/unit/
+ * test_noise_batch.c checks bit for bit.
  */
 #include <math.h>
 #include <stdbool.h>
