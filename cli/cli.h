@@ -9,6 +9,8 @@
 #ifndef IMSYNTH_CLI_H
 #define IMSYNTH_CLI_H
 
+#include <stdbool.h>
+
 enum { EXIT_OK = 0, EXIT_FAILURE_WORK = 1, EXIT_USAGE = 2 };
 
 /* Each takes the arguments after the subcommand name (argv[0] is the subcommand). */
@@ -35,6 +37,9 @@ typedef struct cli_graph_args {
 int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga);
 /* Loads the graph and binds --params / --seed if given; NULL after printing why. */
 struct sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga);
+
+/* extract and export: load, bind, extract (unless export's --full), write -o. */
+int cli_write_material(const char *sub, int argc, char **argv, bool export_mode);
 
 /* Prints "imsynth <sub>: <message>" to stderr. */
 void cli_error(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "cli/cli.h"
 #include "shadergraph/shadergraph.h"
@@ -88,4 +89,61 @@ sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga)
         return NULL;
     }
     return g;
+}
+
+int cli_write_material(const char *sub, int argc, char **argv, bool export_mode)
+{
+    cli_graph_args ga;
+    const char *out_path = NULL;
+    int full = 0, stats = 0;
+    int rc = cli_parse_graph_args(sub, argc, argv, &ga);
+    if (rc != EXIT_OK)
+        return rc;
+    for (int i = 0; i < ga.n_rest; i++) {
+        const char *a = ga.rest[i];
+        if ((!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < ga.n_rest)
+            out_path = ga.rest[++i];
+        else if (export_mode && !strcmp(a, "--full"))
+            full = 1;
+        else if (!export_mode && !strcmp(a, "--stats"))
+            stats = 1;
+        else {
+            cli_error(sub, "unexpected argument \"%s\" (see --help)", a);
+            return EXIT_USAGE;
+        }
+    }
+    if (!out_path) {
+        cli_error(sub, "need -o OUTPUT.json (see --help)");
+        return EXIT_USAGE;
+    }
+    sg_graph *g = cli_load_bound_graph(sub, &ga);
+    if (!g)
+        return EXIT_FAILURE_WORK;
+    sg_error err;
+    sg_graph *x = g;
+    if (!full) {
+        sg_extract_options opt = {.blender = ga.blender};
+        struct timespec t0, t1;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        x = sg_extract(g, &opt, &err);
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        if (!x) {
+            cli_error(sub, "%s: %s", ga.graph_path, err.msg);
+            sg_graph_free(g);
+            return EXIT_FAILURE_WORK;
+        }
+        if (stats)
+            fprintf(stderr, "%s: %d nodes -> %d nodes in %.2f ms\n", ga.graph_path,
+                    sg_graph_node_count(g), sg_graph_node_count(x),
+                    1e3 * ((double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec)));
+    }
+    rc = EXIT_OK;
+    if (sg_graph_save_file(x, out_path, &err) < 0) {
+        cli_error(sub, "%s", err.msg);
+        rc = EXIT_FAILURE_WORK;
+    }
+    if (x != g)
+        sg_graph_free(x);
+    sg_graph_free(g);
+    return rc;
 }

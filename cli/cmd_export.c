@@ -1,6 +1,5 @@
 /* imsynth export: a graph, parameters bound, as a material Blender can load. */
 #include <stdio.h>
-#include <string.h>
 
 #include "cli/cli.h"
 #include "shadergraph/shadergraph.h"
@@ -28,48 +27,5 @@ int cmd_export(int argc, char **argv)
         fputs(help, stdout);
         return EXIT_OK;
     }
-    cli_graph_args ga;
-    const char *out_path = NULL;
-    int full = 0;
-    int rc = cli_parse_graph_args(sub, argc, argv, &ga);
-    if (rc != EXIT_OK)
-        return rc;
-    for (int i = 0; i < ga.n_rest; i++) {
-        const char *a = ga.rest[i];
-        if ((!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < ga.n_rest)
-            out_path = ga.rest[++i];
-        else if (!strcmp(a, "--full"))
-            full = 1;
-        else {
-            cli_error(sub, "unexpected argument \"%s\" (see --help)", a);
-            return EXIT_USAGE;
-        }
-    }
-    if (!out_path) {
-        cli_error(sub, "need -o MATERIAL.json (see --help)");
-        return EXIT_USAGE;
-    }
-    sg_graph *g = cli_load_bound_graph(sub, &ga);
-    if (!g)
-        return EXIT_FAILURE_WORK;
-    sg_error err;
-    sg_graph *x = g;
-    if (!full) {
-        sg_extract_options opt = {.blender = ga.blender};
-        x = sg_extract(g, &opt, &err);
-        if (!x) {
-            cli_error(sub, "%s: %s", ga.graph_path, err.msg);
-            sg_graph_free(g);
-            return EXIT_FAILURE_WORK;
-        }
-    }
-    rc = EXIT_OK;
-    if (sg_graph_save_file(x, out_path, &err) < 0) {
-        cli_error(sub, "%s", err.msg);
-        rc = EXIT_FAILURE_WORK;
-    }
-    if (x != g)
-        sg_graph_free(x);
-    sg_graph_free(g);
-    return rc;
+    return cli_write_material(sub, argc, argv, true);
 }
