@@ -560,8 +560,12 @@ static bool fold_all_constant(fold *x)
         memcpy(inv[k], n->in[k].value, sizeof inv[k]); /* n = 1: planar is x, y, z */
         in[k] = inv[k];
     }
-    for (int k = 0; k < n->n_out; k++)
+    /* Kernels write width-many floats; a colour constant's alpha is 1, as Blender's. */
+    for (int k = 0; k < n->n_out; k++) {
+        outv[k][0] = outv[k][1] = outv[k][2] = 0.0f;
+        outv[k][3] = 1.0f;
         out[k] = outv[k];
+    }
     sg_kernel_args a = {.n = 1, .blender = x->mode, .prop = n->prop, .ramp = n->ramp,
                         .in = in, .out = out, .geom = NULL, .offset = 0, .host_fold = true};
     if (!strcmp(t->idname, "ShaderNodeInvert")) {
