@@ -5,13 +5,28 @@ blender/render_references.py; a graph that changes invalidates its renders (dele
 
 Cases (issue 4): plain diffuse-looking white and grey (Principled, metallic 0), pure metal
 at roughness 0.05 / 0.3 / 0.8, dielectric at roughness 0.05 / 0.5 / 1.0, a coloured metal,
-a strong bump, and noise-driven base colour / roughness / metallic. Random super-shader
-parametrizations are added by the super-shader's own tooling (supershader_<seed>).
+a strong bump, and noise-driven base colour / roughness / metallic; and six random
+super-shader parametrizations, supershader_sN for frames N = 0..5 (`imsynth sample --seed N`):
+graph.json is `imsynth export assets/supershader.json --seed N`, the sub-shader, which
+evaluates to the same maps as the bound super-shader (test_extract) and builds in Blender 3.4
+as well as 4.3 (the whole super-shader builds in 4.x only; tests/reference/nodes/
+gen_roundtrip.py says why). Frames 0..5 are also round-trip cases there, so their maps are
+already proven equal to Blender's.
+
+    python3 tests/reference/render/gen_render_cases.py [--imsynth PATH]
+
+The imsynth binary: --imsynth, else $IMSYNTH, else the newest build*/cli/imsynth.
 """
+import argparse
+import glob
 import json
 import os
+import subprocess
+import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
+SUPERSHADER_SEEDS = range(6)
 
 
 def material(name, bsdf_inputs, extra_nodes=(), extra_links=()):
@@ -71,8 +86,40 @@ def cases():
     return c
 
 
+def find_imsynth(given):
+    if given or os.environ.get("IMSYNTH"):
+        return given or os.environ["IMSYNTH"]
+    found = sorted(glob.glob(os.path.join(REPO, "build*", "cli", "imsynth")),
+                   key=os.path.getmtime, reverse=True)
+    if not found:
+        raise SystemExit("gen_render_cases: no imsynth binary: pass --imsynth PATH or set IMSYNTH")
+    return found[0]
+
+
+def supershader_cases(imsynth):
+    c = {}
+    for seed in SUPERSHADER_SEEDS:
+        fd, tmp = tempfile.mkstemp(prefix="gen_render_cases-", suffix=".json")
+        os.close(fd)
+        try:
+            subprocess.run([imsynth, "export", os.path.join(REPO, "assets", "supershader.json"),
+                            "--seed", str(seed), "-o", tmp], check=True)
+            with open(tmp) as f:
+                g = json.load(f)
+        finally:
+            os.unlink(tmp)
+        g["name"] = "supershader_s%d" % seed
+        c[g["name"]] = g
+    return c
+
+
 def main():
-    for name, g in cases().items():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--imsynth")
+    a = ap.parse_args()
+    all_cases = cases()
+    all_cases.update(supershader_cases(find_imsynth(a.imsynth)))
+    for name, g in all_cases.items():
         d = os.path.join(HERE, name)
         os.makedirs(d, exist_ok=True)
         path = os.path.join(d, "graph.json")
@@ -83,7 +130,7 @@ def main():
         with open(path + ".tmp", "w") as f:
             f.write(text)
         os.replace(path + ".tmp", path)
-    print("%d cases" % len(cases()))
+    print("%d cases" % len(all_cases))
 
 
 if __name__ == "__main__":
