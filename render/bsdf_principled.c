@@ -61,9 +61,7 @@
 /* Cycles drops closures whose weight is below this. */
 #define CLOSURE_WEIGHT_CUTOFF 1e-5f
 
-typedef struct vec3 {
-    float x, y, z;
-} vec3;
+typedef principled_vec3 vec3;
 
 static vec3 v3(float x, float y, float z)
 {
@@ -249,30 +247,18 @@ static vec3 ggx_sample_visible_normal(vec3 v, float alpha, float u1, float u2)
 
 /* ---- Closures ----------------------------------------------------------------------- */
 
-enum { LOBE_DIFFUSE, LOBE_SPECULAR, LOBE_METAL, N_LOBES };
+enum {
+    LOBE_DIFFUSE = PRINCIPLED_DIFFUSE,
+    LOBE_SPECULAR = PRINCIPLED_SPECULAR,
+    LOBE_METAL = PRINCIPLED_METAL,
+    N_LOBES = PRINCIPLED_LOBES
+};
 enum { FRESNEL_DIELECTRIC_4X, FRESNEL_F82_TINT, FRESNEL_CSPEC0_3X };
 
-typedef struct lobe {
-    bool active;
-    vec3 N;
-    /* Closure weight per channel; for 4.x microfacets it includes energy compensation. */
-    float weight[3];
-    float prob;         /* selection probability (sum 1 over active lobes) */
-    /* Microfacet lobes. */
-    float alpha;        /* roughness^2 */
-    bool singular;
-    int fresnel;
-    float f0[3];        /* F0 (4.x specular: F0 * tint; 3.x: cspec0) */
-    float b[3];         /* F82-tint factor */
-    float eta;          /* IOR of the real Fresnel curve (dielectric/cspec0 modes) */
-} lobe;
-
-typedef struct closures {
-    int blender;
-    vec3 V, Ng;
-    float diffuse_roughness;  /* 3.x retro-reflection */
-    lobe lobe[N_LOBES];
-} closures;
+/* The lobe and closure structs are public (bsdf_principled.h) so that callers can hold a
+ * prepared closure; only this file reads their fields. */
+typedef principled_lobe lobe;
+typedef principled_closure closures;
 
 static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
 {
@@ -290,13 +276,15 @@ static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
         F[c] = mixf(l->f0[c], 1.0f, s);
 }
 
-/* f * |cos| (without weight) and pdf of a microfacet lobe; 0 if invalid or singular. */
-static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3], float *pdf)
+/* f * |cos| (without weight) and pdf of a microfacet lobe over its own hemisphere, as
+ * if the geometric surface did not cut it; 0 if invalid or singular. */
+static void microfacet_eval_uncut(const closures *cl, const lobe *l, vec3 L, float f[3],
+                                  float *pdf)
 {
     f[0] = f[1] = f[2] = 0.0f;
     *pdf = 0.0f;
     float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
-    if (l->singular || cos_nv <= 0.0f || cos_nl <= 0.0f || v3_dot(cl->Ng, L) <= 0.0f)
+    if (l->singular || cos_nv <= 0.0f || cos_nl <= 0.0f)
         return;
     vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
     float alpha2 = l->alpha * l->alpha;
@@ -321,8 +309,36 @@ static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3
     *pdf = common * G1v;
 }
 
-/* Samples a microfacet lobe's direction; false if none (reflection below the surface). */
-static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, vec3 *L)
+/* The same, zero below Ng: the lobe as the BSDF has it. */
+static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3], float *pdf)
+{
+    if (v3_dot(cl->Ng, L) <= 0.0f) {
+        f[0] = f[1] = f[2] = 0.0f;
+        *pdf = 0.0f;
+        return;
+    }
+    microfacet_eval_uncut(cl, l, L, f, pdf);
+}
+
+/* Density with which microfacet_sample_direction() produces L, wherever L is (also below
+ * the lobe's hemisphere, where the lobe is zero): D G1(V) / (4 cos_nv). */
+static float microfacet_sample_pdf(const closures *cl, const lobe *l, vec3 L)
+{
+    float cos_nv = v3_dot(l->N, cl->V);
+    if (l->singular || cos_nv <= 0.0f)
+        return 0.0f;
+    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
+    if (v3_dot(H, cl->V) <= 0.0f)
+        return 0.0f;
+    float alpha2 = l->alpha * l->alpha;
+    float lv = ggx_lambda(alpha2, cos_nv);
+    return ggx_D(alpha2, v3_dot(l->N, H)) * 0.25f / cos_nv / (1.0f + lv);
+}
+
+/* A microfacet lobe's sampled direction (the view mirrored about a visible normal),
+ * wherever it points; false only if the lobe cannot be sampled for this view. */
+static bool microfacet_sample_direction(const closures *cl, const lobe *l, float u1, float u2,
+                                        vec3 *L)
 {
     float cos_nv = v3_dot(l->N, cl->V);
     if (cos_nv <= 0.0f)
@@ -339,15 +355,23 @@ static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float
     }
     float cos_hv = v3_dot(H, cl->V);
     *L = v3_sub(v3_scale(H, 2.0f * cos_hv), cl->V);
-    return v3_dot(cl->Ng, *L) > 0.0f && v3_dot(l->N, *L) > 0.0f;
+    return true;
 }
 
-/* f * cos (without weight) and pdf of the diffuse lobe. */
-static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
+/* Samples a microfacet lobe's direction; false if none (reflection below the surface). */
+static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, vec3 *L)
+{
+    return microfacet_sample_direction(cl, l, u1, u2, L) && v3_dot(cl->Ng, *L) > 0.0f &&
+           v3_dot(l->N, *L) > 0.0f;
+}
+
+/* f * cos (without weight) and pdf of the diffuse lobe over its own hemisphere, without
+ * the geometric surface's cut and without the bump shadowing term. */
+static void diffuse_eval_uncut(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
 {
     *f = *pdf = 0.0f;
     float cos_nl = v3_dot(l->N, L);
-    if (cos_nl <= 0.0f || v3_dot(cl->Ng, L) <= 0.0f)
+    if (cos_nl <= 0.0f)
         return;
     *pdf = cos_nl / PI_F;
     float shape = 1.0f;
@@ -360,8 +384,29 @@ static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, fl
         float RR = cl->diffuse_roughness * (v3_dot(L, cl->V) + 1.0f);
         shape = (1.0f - 0.5f * FV) * (1.0f - 0.5f * FL) + RR * (FL + FV + FL * FV * (RR - 1.0f));
     }
-    float bump = v3_equal(l->N, cl->Ng) ? 1.0f : bump_shadowing(cl->Ng, l->N, L);
-    *f = *pdf * shape * bump;
+    *f = *pdf * shape;
+}
+
+/* f * cos (without weight) and pdf of the diffuse lobe. */
+static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
+{
+    if (v3_dot(cl->Ng, L) <= 0.0f) {
+        *f = *pdf = 0.0f;
+        return;
+    }
+    diffuse_eval_uncut(cl, l, L, f, pdf);
+    if (*pdf > 0.0f && !v3_equal(l->N, cl->Ng))
+        *f *= bump_shadowing(cl->Ng, l->N, L);
+}
+
+/* Cosine-weighted direction about the diffuse lobe's normal (pdf cos_nl / pi). */
+static vec3 diffuse_sample_direction(const lobe *l, float u1, float u2)
+{
+    vec3 t, b;
+    tangent_frame(l->N, &t, &b);
+    float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
+    return v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))),
+                  v3_scale(l->N, safe_sqrt(1.0f - u1)));
 }
 
 /* Sum over lobes of weight * f_cos, and the mixture pdf. */
@@ -607,24 +652,6 @@ static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
     set_probabilities(cl, estimate);
 }
 
-/* Builds the closures for view V; false if the BSDF is zero for this view. */
-static bool closures_setup(closures *cl, const principled_inputs *in, int blender,
-                           const float wo[3], const float Ng[3])
-{
-    *cl = (closures){0};
-    cl->blender = blender == 3 ? 3 : 4;
-    cl->V = v3_load(wo);
-    cl->Ng = v3_load(Ng);
-    if (v3_dot(cl->V, cl->Ng) <= 0.0f)
-        return false;
-    vec3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
-    if (cl->blender == 3)
-        setup_3x(cl, in, N);
-    else
-        setup_4x(cl, in, N);
-    return true;
-}
-
 /* ---- Interface ---------------------------------------------------------------------- */
 
 void principled_inputs_default(principled_inputs *in)
@@ -641,15 +668,81 @@ void principled_inputs_default(principled_inputs *in)
     in->N[2] = 1.0f;
 }
 
+int principled_prepare(const principled_inputs *in, int blender, const float wo[3],
+                       const float Ng[3], closures *cl)
+{
+    *cl = (closures){0};
+    cl->blender = blender == 3 ? 3 : 4;
+    cl->V = v3_load(wo);
+    cl->Ng = v3_load(Ng);
+    if (v3_dot(cl->V, cl->Ng) <= 0.0f)
+        return 0;
+    vec3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
+    if (cl->blender == 3)
+        setup_3x(cl, in, N);
+    else
+        setup_4x(cl, in, N);
+    cl->roughness = cl->blender == 3 ? in->roughness : saturate(in->roughness);
+    for (int i = 0; i < N_LOBES; i++)
+        if (cl->lobe[i].active && !v3_equal(cl->lobe[i].N, cl->Ng))
+            cl->bumped = 1;
+    return 1;
+}
+
+void principled_closure_eval(const closures *cl, const float wi[3], float f_cos[3], float *pdf)
+{
+    closures_eval(cl, v3_load(wi), f_cos, pdf);
+}
+
+int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
+                              float f_cos[3], float *pdf)
+{
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+    *pdf = 0.0f;
+    wi[0] = wi[1] = wi[2] = 0.0f;
+    /* Pick a lobe by u[2]. */
+    int pick = -1;
+    float acc = 0.0f;
+    for (int i = 0; i < N_LOBES; i++) {
+        if (!cl->lobe[i].active)
+            continue;
+        pick = i;
+        acc += cl->lobe[i].prob;
+        if (u[2] < acc)
+            break;
+    }
+    if (pick < 0)
+        return 0;
+    const lobe *l = &cl->lobe[pick];
+    vec3 L;
+    if (pick == LOBE_DIFFUSE) {
+        L = diffuse_sample_direction(l, u[0], u[1]);
+        if (v3_dot(cl->Ng, L) <= 0.0f || safe_sqrt(1.0f - u[0]) <= 0.0f)
+            return 0;
+    } else if (!microfacet_sample(cl, l, u[0], u[1], &L)) {
+        return 0;
+    }
+    wi[0] = L.x;
+    wi[1] = L.y;
+    wi[2] = L.z;
+    closures_eval(cl, L, f_cos, pdf);
+    if (l->singular) {
+        /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
+        float F[3];
+        lobe_fresnel(l, v3_dot(l->N, cl->V), F);
+        for (int c = 0; c < 3; c++)
+            f_cos[c] += SINGULAR_SCALE * l->weight[c] * F[c];
+        *pdf += SINGULAR_SCALE * l->prob;
+    }
+    return *pdf > 0.0f;
+}
+
 void principled_eval(const principled_inputs *in, int blender, const float wo[3],
                      const float wi[3], const float Ng[3], float f_cos[3], float *pdf)
 {
     closures cl;
-    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
-    *pdf = 0.0f;
-    if (!closures_setup(&cl, in, blender, wo, Ng))
-        return;
-    closures_eval(&cl, v3_load(wi), f_cos, pdf);
+    principled_prepare(in, blender, wo, Ng, &cl);
+    principled_closure_eval(&cl, wi, f_cos, pdf);
 }
 
 int principled_sample(const principled_inputs *in, int blender, const float wo[3],
@@ -657,51 +750,8 @@ int principled_sample(const principled_inputs *in, int blender, const float wo[3
                       float *pdf)
 {
     closures cl;
-    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
-    *pdf = 0.0f;
-    wi[0] = wi[1] = wi[2] = 0.0f;
-    if (!closures_setup(&cl, in, blender, wo, Ng))
-        return 0;
-    /* Pick a lobe by u[2]. */
-    int pick = -1;
-    float acc = 0.0f;
-    for (int i = 0; i < N_LOBES; i++) {
-        if (!cl.lobe[i].active)
-            continue;
-        pick = i;
-        acc += cl.lobe[i].prob;
-        if (u[2] < acc)
-            break;
-    }
-    if (pick < 0)
-        return 0;
-    const lobe *l = &cl.lobe[pick];
-    vec3 L;
-    if (pick == LOBE_DIFFUSE) {
-        vec3 t, b;
-        tangent_frame(l->N, &t, &b);
-        float r = sqrtf(u[0]), phi = 2.0f * PI_F * u[1];
-        float z = safe_sqrt(1.0f - u[0]);
-        L = v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))),
-                   v3_scale(l->N, z));
-        if (v3_dot(cl.Ng, L) <= 0.0f || z <= 0.0f)
-            return 0;
-    } else if (!microfacet_sample(&cl, l, u[0], u[1], &L)) {
-        return 0;
-    }
-    wi[0] = L.x;
-    wi[1] = L.y;
-    wi[2] = L.z;
-    closures_eval(&cl, L, f_cos, pdf);
-    if (l->singular) {
-        /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
-        float F[3];
-        lobe_fresnel(l, v3_dot(l->N, cl.V), F);
-        for (int c = 0; c < 3; c++)
-            f_cos[c] += SINGULAR_SCALE * l->weight[c] * F[c];
-        *pdf += SINGULAR_SCALE * l->prob;
-    }
-    return *pdf > 0.0f;
+    principled_prepare(in, blender, wo, Ng, &cl);
+    return principled_closure_sample(&cl, u, wi, f_cos, pdf);
 }
 
 /* One point of a lobe's sampling domain: f_cos / pdf (without the weight) for the
@@ -717,11 +767,7 @@ static bool lobe_ratio(const closures *cl, int i, int also, float u1, float u2, 
     r[0] = r[1] = r[2] = 0.0f;
     r2[0] = r2[1] = r2[2] = 0.0f;
     if (i == LOBE_DIFFUSE) {
-        vec3 t, bt;
-        tangent_frame(l->N, &t, &bt);
-        float rad = sqrtf(u1), phi = 2.0f * PI_F * u2;
-        L = v3_add(v3_add(v3_scale(t, rad * cosf(phi)), v3_scale(bt, rad * sinf(phi))),
-                   v3_scale(l->N, safe_sqrt(1.0f - u1)));
+        L = diffuse_sample_direction(l, u1, u2);
         diffuse_eval(cl, l, L, &f[0], &p);
         f[1] = f[2] = f[0];
     } else {
@@ -818,55 +864,145 @@ static void lobe_albedo_quadrature(const closures *cl, int i, int also, float al
     }
 }
 
+/* A lobe's directional albedo (with its weight) from the tables at its own normal: exact
+ * (to the tables' accuracy) where the normal is Ng; with a bump, what the lobe would
+ * reflect if Ng did not cut it, except 4.x's diffuse, whose table is of the cut lobe with
+ * its shadowing term, and delta lobes, cut exactly. */
+static void lobe_albedo_uncut(const closures *cl, int i, float alb[3])
+{
+    const lobe *l = &cl->lobe[i];
+    float mu = v3_dot(cl->V, l->N);
+    if (i == LOBE_DIFFUSE) {
+        float d = 1.0f;
+        if (cl->blender == 3) {
+            d = diffuse_albedo_3x(cl->diffuse_roughness, mu);
+        } else if (!v3_equal(l->N, cl->Ng)) {
+            /* Lambert under the bump shadowing term depends on the tilt only. */
+            float tilt = acosf(fminf(fmaxf(v3_dot(l->N, cl->Ng), -1.0f), 1.0f));
+            d = microfacet_table_1d(microfacet_bump_lambert, tilt / (0.5f * PI_F), 65);
+        }
+        alb[0] = alb[1] = alb[2] = d;
+    } else if (l->singular) {
+        lobe_fresnel(l, mu, alb);
+        vec3 R = v3_sub(v3_scale(l->N, 2.0f * mu), cl->V);
+        if (!(v3_dot(cl->Ng, R) > 0.0f && v3_dot(l->N, R) > 0.0f))
+            alb[0] = alb[1] = alb[2] = 0.0f;
+    } else if (cl->blender == 3) {
+        microfacet_albedo_3x(l, cl->roughness, mu, alb);
+    } else {
+        microfacet_albedo_4x(l, cl->roughness, mu, alb);
+    }
+    for (int c = 0; c < 3; c++)
+        alb[c] *= l->weight[c];
+}
+
+void principled_closure_albedo(const closures *cl, float albedo[3])
+{
+    albedo[0] = albedo[1] = albedo[2] = 0.0f;
+    bool done[N_LOBES] = {false};
+    for (int i = 0; i < N_LOBES; i++) {
+        const lobe *l = &cl->lobe[i];
+        if (!l->active || done[i])
+            continue;
+        float alb[3], alb2[3];
+        if (!v3_equal(l->N, cl->Ng) && !(i == LOBE_DIFFUSE && cl->blender == 4)) {
+            /* 4.x's specular and metal lobes share normal and roughness: one pass. */
+            int also = -1;
+            if (i == LOBE_SPECULAR && cl->lobe[LOBE_METAL].active) {
+                also = LOBE_METAL;
+                done[LOBE_METAL] = true;
+            }
+            lobe_albedo_quadrature(cl, i, also, alb, alb2);
+            if (also >= 0)
+                for (int c = 0; c < 3; c++)
+                    albedo[c] += alb2[c];
+        } else {
+            lobe_albedo_uncut(cl, i, alb);
+        }
+        for (int c = 0; c < 3; c++)
+            albedo[c] += alb[c];
+    }
+}
+
 void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
                        const float Ng[3], float albedo[3])
 {
     closures cl;
+    principled_prepare(in, blender, wo, Ng, &cl);
+    principled_closure_albedo(&cl, albedo);
+}
+
+void principled_albedo_uncut(const closures *cl, float albedo[3])
+{
     albedo[0] = albedo[1] = albedo[2] = 0.0f;
-    if (!closures_setup(&cl, in, blender, wo, Ng))
-        return;
-    float roughness = cl.blender == 3 ? in->roughness : saturate(in->roughness);
-    bool done[N_LOBES] = {false};
     for (int i = 0; i < N_LOBES; i++) {
-        const lobe *l = &cl.lobe[i];
-        if (!l->active || done[i])
+        if (!cl->lobe[i].active)
             continue;
-        float alb[3], alb2[3];
-        if (!v3_equal(l->N, cl.Ng)) {
-            if (i == LOBE_DIFFUSE && cl.blender == 4) {
-                /* Lambert under the bump shadowing term depends on the tilt only. */
-                float tilt = acosf(fminf(fmaxf(v3_dot(l->N, cl.Ng), -1.0f), 1.0f));
-                float d = microfacet_table_1d(microfacet_bump_lambert, tilt / (0.5f * PI_F), 65);
-                for (int c = 0; c < 3; c++)
-                    alb[c] = d * l->weight[c];
-            } else {
-                /* 4.x's specular and metal lobes share normal and roughness: one pass. */
-                int also = -1;
-                if (i == LOBE_SPECULAR && cl.lobe[LOBE_METAL].active) {
-                    also = LOBE_METAL;
-                    done[LOBE_METAL] = true;
-                }
-                lobe_albedo_quadrature(&cl, i, also, alb, alb2);
-                if (also >= 0)
-                    for (int c = 0; c < 3; c++)
-                        albedo[c] += alb2[c];
-            }
-        } else {
-            float mu = v3_dot(cl.V, l->N);
-            if (i == LOBE_DIFFUSE) {
-                float d = cl.blender == 3 ? diffuse_albedo_3x(cl.diffuse_roughness, mu) : 1.0f;
-                alb[0] = alb[1] = alb[2] = d;
-            } else if (l->singular) {
-                lobe_fresnel(l, mu, alb);
-            } else if (cl.blender == 3) {
-                microfacet_albedo_3x(l, roughness, mu, alb);
-            } else {
-                microfacet_albedo_4x(l, roughness, mu, alb);
-            }
-            for (int c = 0; c < 3; c++)
-                alb[c] *= l->weight[c];
-        }
+        float alb[3];
+        lobe_albedo_uncut(cl, i, alb);
         for (int c = 0; c < 3; c++)
             albedo[c] += alb[c];
+    }
+}
+
+void principled_albedo_cut_estimate(const closures *cl, const float u[3], float cut[3])
+{
+    cut[0] = cut[1] = cut[2] = 0.0f;
+    if (!cl->bumped)
+        return;
+    /* Sample among the lobes with a density (singular lobes have none: their cut is
+     * exact in lobe_albedo_uncut). */
+    float total = 0.0f;
+    for (int i = 0; i < N_LOBES; i++)
+        if (cl->lobe[i].active && !cl->lobe[i].singular)
+            total += cl->lobe[i].prob;
+    if (!(total > 0.0f))
+        return;
+    int pick = -1;
+    float acc = 0.0f;
+    for (int i = 0; i < N_LOBES; i++) {
+        if (!cl->lobe[i].active || cl->lobe[i].singular || !(cl->lobe[i].prob > 0.0f))
+            continue;
+        pick = i;
+        acc += cl->lobe[i].prob;
+        if (u[2] * total < acc)
+            break;
+    }
+    if (pick < 0)
+        return;
+    vec3 L;
+    if (pick == LOBE_DIFFUSE)
+        L = diffuse_sample_direction(&cl->lobe[pick], u[0], u[1]);
+    else if (!microfacet_sample_direction(cl, &cl->lobe[pick], u[0], u[1], &L))
+        return;
+    /* The mixture density of that sampling, wherever L points. */
+    float q = 0.0f;
+    for (int i = 0; i < N_LOBES; i++) {
+        const lobe *l = &cl->lobe[i];
+        if (!l->active || l->singular)
+            continue;
+        float p = i == LOBE_DIFFUSE ? fmaxf(v3_dot(l->N, L), 0.0f) / PI_F
+                                    : microfacet_sample_pdf(cl, l, L);
+        q += l->prob / total * p;
+    }
+    if (!(q > 0.0f))
+        return;
+    for (int i = 0; i < N_LOBES; i++) {
+        const lobe *l = &cl->lobe[i];
+        /* 4.x's diffuse table already includes the cut and the shadowing term. */
+        if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4))
+            continue;
+        float f[3], g[3], p;
+        if (i == LOBE_DIFFUSE) {
+            diffuse_eval(cl, l, L, &f[0], &p);
+            diffuse_eval_uncut(cl, l, L, &g[0], &p);
+            f[1] = f[2] = f[0];
+            g[1] = g[2] = g[0];
+        } else {
+            microfacet_eval(cl, l, L, f, &p);
+            microfacet_eval_uncut(cl, l, L, g, &p);
+        }
+        for (int c = 0; c < 3; c++)
+            cut[c] += l->weight[c] * (f[c] - g[c]) / q;
     }
 }

@@ -10,6 +10,10 @@
  * - energy: the albedo E[f_cos / pdf] is <= 1 for white materials;
  * - white furnace: 4.x white metal has albedo 1 at every roughness and view (1%);
  * - principled_albedo() against the Monte Carlo albedo;
+ * - the renderer's split of the bumped albedo: principled_albedo_uncut() plus the mean of
+ *   principled_albedo_cut_estimate() against the Monte Carlo albedo, and exactly the
+ *   tabulated albedo (cut estimate 0) without a bump;
+ * - the prepared-closure functions give the same bits as the one-shot ones;
  * - reciprocity of 3.x (Disney diffuse + GGX are symmetric; 4.x is not, by design: its
  *   energy compensation and layering depend on the view direction only, as in Cycles);
  * - values computed by hand from Cycles' formulas.
@@ -287,6 +291,117 @@ static void test_albedo(void **state)
     check_albedo(3, 0.6f);
 }
 
+/* The renderer's world term with a bump: uncut tables + the mean cut estimate must be the
+ * albedo. The cut estimate is averaged over n random u; both it and the Monte Carlo
+ * albedo carry a standard error, and the tables their interpolation allowance. */
+static void check_cut_estimate(int blender)
+{
+    rng r = {900 + blender};
+    double worst = 0.0, largest_cut = 0.0;
+    for (int trial = 0; trial < 40; trial++) {
+        principled_inputs in;
+        random_material(&r, &in, 0.8f);
+        float wo[3];
+        upper_direction(&r, 0.05f, wo);
+        principled_closure c;
+        assert_true(principled_prepare(&in, blender, wo, NG, &c));
+        albedo_estimate e = mc_albedo(&in, blender, wo, 100000, &r);
+        float uncut[3];
+        principled_albedo_uncut(&c, uncut);
+        const int n = 100000;
+        double s[3] = {0}, s2[3] = {0};
+        for (int k = 0; k < n; k++) {
+            float u[3] = {(float)rnd(&r), (float)rnd(&r), (float)rnd(&r)}, cut[3];
+            principled_albedo_cut_estimate(&c, u, cut);
+            for (int ch = 0; ch < 3; ch++) {
+                s[ch] += cut[ch];
+                s2[ch] += (double)cut[ch] * cut[ch];
+            }
+        }
+        for (int ch = 0; ch < 3; ch++) {
+            double mean = s[ch] / n;
+            double se = sqrt(fmax(s2[ch] / n - mean * mean, 0.0) / n);
+            double err = fabs(uncut[ch] + mean - e.mean[ch]) -
+                         5.0 * sqrt(se * se + e.se[ch] * e.se[ch]);
+            worst = fmax(worst, err);
+            largest_cut = fmax(largest_cut, -mean);
+            /* Same table allowance as check_albedo's unbumped case. */
+            if (err > 0.002)
+                fail_msg("blender %d trial %d channel %d: uncut %.5f + cut %.5f +- %.5f, "
+                         "Monte Carlo %.5f +- %.5f (roughness %.3f metallic %.3f)",
+                         blender, trial, ch, uncut[ch], mean, se, e.mean[ch], e.se[ch],
+                         in.roughness, in.metallic);
+        }
+    }
+    /* The check means something only if the bump really cuts lobes. */
+    assert_true(largest_cut > 0.01);
+    print_message("blender %d: largest cut %.4f, worst |uncut + cut - MC| beyond 5 sigma "
+                  "%.5f\n", blender, largest_cut, worst);
+}
+
+static void test_albedo_cut_estimate(void **state)
+{
+    (void)state;
+    check_cut_estimate(4);
+    check_cut_estimate(3);
+    /* Without a bump the uncut albedo is the albedo and nothing is cut. */
+    rng r = {77};
+    for (int trial = 0; trial < 200; trial++) {
+        int blender = trial % 2 ? 3 : 4;
+        principled_inputs in;
+        random_material(&r, &in, 0.0f);
+        float wo[3], alb[3], uncut[3], cut[3], u[3] = {(float)rnd(&r), (float)rnd(&r), 0.5f};
+        upper_direction(&r, 0.05f, wo);
+        principled_closure c;
+        assert_true(principled_prepare(&in, blender, wo, NG, &c));
+        assert_int_equal(c.bumped, 0);
+        principled_albedo(&in, blender, wo, NG, alb);
+        principled_albedo_uncut(&c, uncut);
+        principled_albedo_cut_estimate(&c, u, cut);
+        for (int ch = 0; ch < 3; ch++) {
+            assert_true(alb[ch] == uncut[ch]);
+            assert_true(cut[ch] == 0.0f);
+        }
+    }
+}
+
+/* principled_closure_* on a prepared closure == the one-shot functions, bit for bit. */
+static void test_prepared_closure(void **state)
+{
+    (void)state;
+    rng r = {55};
+    for (int trial = 0; trial < 2000; trial++) {
+        int blender = trial % 2 ? 3 : 4;
+        principled_inputs in;
+        random_material(&r, &in, trial % 4 < 2 ? 0.0f : 0.8f);
+        float wo[3], wi[3], u[3] = {(float)rnd(&r), (float)rnd(&r), (float)rnd(&r)};
+        upper_direction(&r, 0.05f, wo);
+        uniform_sphere(&r, wi);
+        principled_closure c;
+        assert_true(principled_prepare(&in, blender, wo, NG, &c));
+        float f1[3], f2[3], p1, p2, w1[3], w2[3];
+        principled_eval(&in, blender, wo, wi, NG, f1, &p1);
+        principled_closure_eval(&c, wi, f2, &p2);
+        assert_memory_equal(f1, f2, sizeof f1);
+        assert_true(p1 == p2);
+        int ok1 = principled_sample(&in, blender, wo, NG, u, w1, f1, &p1);
+        int ok2 = principled_closure_sample(&c, u, w2, f2, &p2);
+        assert_int_equal(ok1, ok2);
+        assert_memory_equal(w1, w2, sizeof w1);
+        assert_memory_equal(f1, f2, sizeof f1);
+        assert_true(p1 == p2);
+    }
+    /* Seen from below the surface: not prepared, and every function gives zeros. */
+    principled_inputs in;
+    principled_inputs_default(&in);
+    principled_closure c;
+    float below[3] = {0.0f, 0.6f, -0.8f}, f[3], p, alb[3];
+    assert_false(principled_prepare(&in, 4, below, NG, &c));
+    principled_closure_eval(&c, NG, f, &p);
+    principled_albedo_uncut(&c, alb);
+    assert_true(f[0] == 0.0f && p == 0.0f && alb[0] == 0.0f);
+}
+
 /* 3.x: f(wo, wi) / cos(wi) = f(wi, wo) / cos(wo) (unbumped normal). */
 static void test_reciprocity_3(void **state)
 {
@@ -473,6 +588,8 @@ int main(void)
         cmocka_unit_test(test_energy_conservation),
         cmocka_unit_test(test_white_furnace_4),
         cmocka_unit_test(test_albedo),
+        cmocka_unit_test(test_albedo_cut_estimate),
+        cmocka_unit_test(test_prepared_closure),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
