@@ -355,27 +355,41 @@ typedef struct cell_table {
     float color[MAX_SCAN][3];
 } cell_table;
 
-static inline void cell_table_fill(cell_table *t, const vpoint *cell, int radius, int dims,
+static inline __attribute__((always_inline)) void cell_table_fill(cell_table *t, const vpoint *cell, int radius, int dims,
                                    float randomness, bool with_color)
 {
     const int n = scan_count(radius, dims);
     t->n = n;
-    /* The cells' coordinates as hash keys, padded to whole vectors. */
+    /* The cells' coordinates as hash keys, padded to whole vectors. Nested loops, one
+     * per dimension (first coordinate fastest), so that the offsets live in registers:
+     * an odometer over an array of counters was most of this function's time. */
     uint32_t keys[4][MAX_SCAN + 8];
-    int o[4] = {-radius, -radius, -radius, -radius};
-    for (int idx = 0; idx < n; idx++) {
-        vpoint off = {{0.0f, 0.0f, 0.0f, 0.0f}};
-        for (int c = 0; c < dims; c++) {
-            off.v[c] = (float)o[c];
-            keys[c][idx] = float_bits(cell->v[c] + off.v[c]);
+    const int side = 2 * radius + 1;
+    const int n1 = dims > 1 ? side : 1, n2 = dims > 2 ? side : 1, n3 = dims > 3 ? side : 1;
+    int idx = 0;
+    for (int w = 0; w < n3; w++) {
+        const float ow = dims > 3 ? (float)(w - radius) : 0.0f;
+        for (int z = 0; z < n2; z++) {
+            const float oz = dims > 2 ? (float)(z - radius) : 0.0f;
+            for (int y = 0; y < n1; y++) {
+                const float oy = dims > 1 ? (float)(y - radius) : 0.0f;
+                for (int x = 0; x < side; x++, idx++) {
+                    const float ox = (float)(x - radius);
+                    t->offset[idx] = (vpoint){{ox, oy, oz, ow}};
+                    keys[0][idx] = float_bits(cell->v[0] + ox);
+                    if (dims > 1)
+                        keys[1][idx] = float_bits(cell->v[1] + oy);
+                    if (dims > 2)
+                        keys[2][idx] = float_bits(cell->v[2] + oz);
+                    if (dims > 3)
+                        keys[3][idx] = float_bits(cell->v[3] + ow);
+                }
+            }
         }
-        t->offset[idx] = off;
-        for (int c = 0; c < dims && ++o[c] > radius; c++)
-            o[c] = -radius;
     }
     for (int c = 0; c < 4; c++)
-        for (int idx = n; idx < n + 8; idx++)
-            keys[c][idx] = 0u;
+        for (int pad = n; pad < n + 8; pad++)
+            keys[c][pad] = 0u;
 
     const u32x8 one = (u32x8){0} + float_bits(1.0f), two = (u32x8){0} + float_bits(2.0f);
     for (int s = 0; s < n; s += 8) {
@@ -465,9 +479,27 @@ static inline float search_start(const voronoi_params *p) { return p->blender3 ?
 
 /* ---- one octave -------------------------------------------------------------------- */
 
-static voronoi_result voronoi_f1(const voronoi_params *p, const vpoint *coord)
+/* VORONOI_DIMS_DISPATCH: the hot searches take the dimension count as a parameter and
+ * are always inlined into a switch that passes it as a constant, so that each dimension
+ * gets its own copy with the per-coordinate loops unrolled and the points in registers
+ * (with a run-time count the points went through the stack on every step). Same
+ * arithmetic, same bits. */
+#define VORONOI_DIMS_DISPATCH(fn, p, coord)                                               \
+    switch ((p)->dims) {                                                                  \
+    case 1:                                                                               \
+        return fn((p), (coord), 1);                                                       \
+    case 2:                                                                               \
+        return fn((p), (coord), 2);                                                       \
+    case 3:                                                                               \
+        return fn((p), (coord), 3);                                                       \
+    default:                                                                              \
+        return fn((p), (coord), 4);                                                       \
+    }
+
+/* Specialised per dimension count (VORONOI_DIMS_DISPATCH). */
+static inline __attribute__((always_inline)) voronoi_result voronoi_f1_n(const voronoi_params *p,
+        const vpoint *coord, const int dims)
 {
-    const int dims = p->dims;
     vpoint cell, local, neighbour = {{0.0f, 0.0f, 0.0f, 0.0f}};
     split_cell(coord, dims, &cell, &local);
 
@@ -497,6 +529,11 @@ static voronoi_result voronoi_f1(const voronoi_params *p, const vpoint *coord)
         abs_point.v[c] = target_point.v[c] + cell.v[c];
     r.position = to_position(&abs_point, dims);
     return r;
+}
+
+static voronoi_result voronoi_f1(const voronoi_params *p, const vpoint *coord)
+{
+    VORONOI_DIMS_DISPATCH(voronoi_f1_n, p, coord);
 }
 
 /* Smooth F1. 4.x takes the first point as it is (h = 1); 3.x blends it into a start
@@ -542,9 +579,10 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
     return r;
 }
 
-static voronoi_result voronoi_f2(const voronoi_params *p, const vpoint *coord)
+/* Specialised per dimension count (VORONOI_DIMS_DISPATCH). */
+static inline __attribute__((always_inline)) voronoi_result voronoi_f2_n(const voronoi_params *p,
+        const vpoint *coord, const int dims)
 {
-    const int dims = p->dims;
     vpoint cell, local, neighbour = {{0.0f, 0.0f, 0.0f, 0.0f}};
     split_cell(coord, dims, &cell, &local);
 
@@ -585,6 +623,11 @@ static voronoi_result voronoi_f2(const voronoi_params *p, const vpoint *coord)
     return r;
 }
 
+static voronoi_result voronoi_f2(const voronoi_params *p, const vpoint *coord)
+{
+    VORONOI_DIMS_DISPATCH(voronoi_f2_n, p, coord);
+}
+
 /* 1D has its own closed form: the borders are the midpoints to the two neighbours. */
 static float voronoi_distance_to_edge_1d(const voronoi_params *p, float w)
 {
@@ -602,9 +645,10 @@ static float voronoi_distance_to_edge_1d(const voronoi_params *p, float w)
 /* Distance from the point to the nearest border of its cell: the border with each other
  * point is the bisecting plane; project onto its normal. Points closer than 1e-2 to the
  * closest one (in practice: the closest one itself) are skipped. */
-static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coord)
+/* Specialised per dimension count (VORONOI_DIMS_DISPATCH). */
+static inline __attribute__((always_inline)) float voronoi_distance_to_edge_n(const voronoi_params *p,
+        const vpoint *coord, const int dims)
 {
-    const int dims = p->dims;
     if (dims == 1)
         return voronoi_distance_to_edge_1d(p, coord->v[0]);
     vpoint cell, local;
@@ -647,6 +691,11 @@ static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coo
         }
     }
     return min_distance;
+}
+
+static float voronoi_distance_to_edge(const voronoi_params *p, const vpoint *coord)
+{
+    VORONOI_DIMS_DISPATCH(voronoi_distance_to_edge_n, p, coord);
 }
 
 /* Half the distance between the closest point and the point closest to it (always
