@@ -29,37 +29,48 @@ CHROOT = "/srv/trixie"
 SEEDS = {"a": 1, "b": 2}
 
 
-def render_half(case, version, half, samples, threads):
-    out = os.path.join(case, "blender-%s-%s.exr" % (version, half))
-    timing = os.path.join(case, "blender-%s-%s.json" % (version, half))
-    if os.path.exists(out) and os.path.exists(timing):
-        return True
+def render_cycles(graph, version, samples, seed, out_exr, out_timing, threads=0, nice=10):
+    """Renders GRAPH (our JSON) in Blender VERSION ("3.4" on PATH, else the trixie chroot's
+    4.x) with Cycles: SAMPLES samples, Cycles seed SEED, to OUT_EXR (half float) and
+    OUT_TIMING (JSON: Blender version, samples, seed, seconds of the render inside
+    Blender). Both are written whole or not at all. Returns None, or what went wrong."""
     chroot = version != "3.4"
     work = tempfile.mkdtemp(dir=os.path.join(CHROOT, "tmp") if chroot else None)
     try:
         for s in SCRIPTS:
             shutil.copy(os.path.join(REPO, "blender", s), work)
-        shutil.copy(os.path.join(case, "graph.json"), work)
+        shutil.copy(graph, os.path.join(work, "graph.json"))
         inside = (lambda p: p[len(CHROOT):]) if chroot else (lambda p: p)
         cmd = ["blender", "-b", "--factory-startup", "-noaudio", "-P",
                inside(os.path.join(work, "render_reference.py")), "--",
                inside(os.path.join(work, "graph.json")), "--samples", str(samples),
-               "--seed", str(SEEDS[half]), "-o", inside(os.path.join(work, "out.exr")),
+               "--seed", str(seed), "-o", inside(os.path.join(work, "out.exr")),
                "--timing", inside(os.path.join(work, "out.json")), "--threads", str(threads)]
-        cmd = ["nice", "-n", "10"] + (["chroot", CHROOT] if chroot else []) + cmd
+        cmd = (["nice", "-n", str(nice)] if nice else []) + (["chroot", CHROOT] if chroot else []) + cmd
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0 or not os.path.exists(os.path.join(work, "out.exr")):
-            sys.stderr.write("%s %s %s: Blender failed:\n%s\n%s\n" % (
-                case, version, half, r.stdout[-2000:], r.stderr[-2000:]))
-            return False
-        shutil.move(os.path.join(work, "out.exr"), out + ".tmp")
-        os.replace(out + ".tmp", out)
-        shutil.move(os.path.join(work, "out.json"), timing + ".tmp")
-        os.replace(timing + ".tmp", timing)
-        print("%s: Blender %s half %s done" % (os.path.basename(case), version, half), flush=True)
-        return True
+            return "Blender failed:\n%s\n%s" % (r.stdout[-2000:], r.stderr[-2000:])
+        shutil.move(os.path.join(work, "out.exr"), out_exr + ".tmp")
+        os.replace(out_exr + ".tmp", out_exr)
+        shutil.move(os.path.join(work, "out.json"), out_timing + ".tmp")
+        os.replace(out_timing + ".tmp", out_timing)
+        return None
     finally:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def render_half(case, version, half, samples, threads):
+    out = os.path.join(case, "blender-%s-%s.exr" % (version, half))
+    timing = os.path.join(case, "blender-%s-%s.json" % (version, half))
+    if os.path.exists(out) and os.path.exists(timing):
+        return True
+    err = render_cycles(os.path.join(case, "graph.json"), version, samples, SEEDS[half], out,
+                        timing, threads)
+    if err:
+        sys.stderr.write("%s %s %s: %s\n" % (case, version, half, err))
+        return False
+    print("%s: Blender %s half %s done" % (os.path.basename(case), version, half), flush=True)
+    return True
 
 
 def main():

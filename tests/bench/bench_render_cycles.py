@@ -1,0 +1,142 @@
+#!/usr/bin/env python3
+"""Side by side, in one run: Blender's Cycles at 252 samples against imsynth's default
+(fast) mode, on the random super-shader parametrizations that have a converged Cycles
+reference (tests/reference/render/supershader_s*/, 2 x 2048 samples).
+
+    python3 tests/bench/bench_render_cycles.py [--versions 4.3,3.4] [--samples 252]
+        [--cases supershader_s0,...] [--imsynth PATH] [--repeat 3] [--out results.json]
+        [-- extra imsynth render options, e.g. --spp 4]
+
+Per case and Blender version:
+  Cycles   one render of `samples` samples (seed 3, independent of the reference's seeds 1
+           and 2) by blender/render_reference.py: seconds is the render inside Blender,
+           excluding Blender's start-up and the scene building; Cycles uses every core.
+  imsynth  `imsynth render GRAPH --blender 3|4` with default options (plus the extra
+           options), `repeat` times: seconds is the render inside the process (imsynth
+           --stats: excluding start-up, graph loading and compiling), the best of the
+           repeats; every core.
+  RMSE     `imsynth compare IMAGE REF_A REF_B --json`: rmse_converged, the RMSE against the
+           4096-sample reference with the reference's own noise taken out (both images are
+           independent of the reference's samples).
+Prints a Markdown table (for BENCHMARKS.md) and, with --out, writes the numbers as JSON.
+Plain python3; Blender 3.4 on PATH and 4.3 in /srv/trixie (scripts/setup-oracles). Run
+it on an otherwise idle machine: both renderers use all cores.
+"""
+import argparse
+import glob
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CASES = os.path.join(REPO, "tests", "reference", "render")
+sys.path.insert(0, os.path.join(REPO, "blender"))
+from render_references import render_cycles  # noqa: E402
+
+
+def find_imsynth(given):
+    if given or os.environ.get("IMSYNTH"):
+        return given or os.environ["IMSYNTH"]
+    found = sorted(glob.glob(os.path.join(REPO, "build*", "cli", "imsynth")),
+                   key=os.path.getmtime, reverse=True)
+    if not found:
+        raise SystemExit("bench_render_cycles: no imsynth binary: pass --imsynth PATH")
+    return found[0]
+
+
+def compare(imsynth, image, case, version):
+    ref = [os.path.join(case, "blender-%s-%s.exr" % (version, h)) for h in "ab"]
+    r = subprocess.run([imsynth, "compare", image] + ref + ["--json"], capture_output=True,
+                       text=True)
+    if r.returncode != 0:
+        raise SystemExit("bench_render_cycles: imsynth compare failed: %s" % r.stderr)
+    return json.loads(r.stdout)
+
+
+def imsynth_render(imsynth, graph, version, out, extra):
+    cmd = [imsynth, "render", graph, "--blender", version[0], "-o", out, "--stats"] + extra
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    m = re.search(r"imsynth render: ([0-9.]+) s", r.stderr)
+    if r.returncode != 0 or not m:
+        raise SystemExit("bench_render_cycles: %s failed:\n%s" % (" ".join(cmd), r.stderr))
+    return float(m.group(1))
+
+
+def main():
+    argv = sys.argv[1:]
+    extra = []
+    if "--" in argv:
+        extra = argv[argv.index("--") + 1:]
+        argv = argv[:argv.index("--")]
+    p = argparse.ArgumentParser()
+    p.add_argument("--versions", default="4.3")
+    p.add_argument("--samples", type=int, default=252)
+    p.add_argument("--cases")
+    p.add_argument("--imsynth")
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--out")
+    a = p.parse_args(argv)
+    imsynth = find_imsynth(a.imsynth)
+    names = a.cases.split(",") if a.cases else sorted(
+        os.path.basename(d) for d in glob.glob(os.path.join(CASES, "supershader_s*")))
+    rows = []
+    work = tempfile.mkdtemp(prefix="bench_render_cycles-")
+    try:
+        for version in a.versions.split(","):
+            for name in names:
+                case = os.path.join(CASES, name)
+                graph = os.path.join(case, "graph.json")
+                if not all(os.path.exists(os.path.join(case, "blender-%s-%s.exr" % (version, h)))
+                           for h in "ab"):
+                    print("%s %s: no reference, skipped" % (name, version), file=sys.stderr)
+                    continue
+                cyc_exr = os.path.join(work, "cycles.exr")
+                cyc_json = os.path.join(work, "cycles.json")
+                err = render_cycles(graph, version, a.samples, 3, cyc_exr, cyc_json, nice=0)
+                if err:
+                    raise SystemExit("bench_render_cycles: %s %s: %s" % (name, version, err))
+                with open(cyc_json) as f:
+                    cyc_seconds = json.load(f)["seconds"]
+                cyc = compare(imsynth, cyc_exr, case, version)
+                ours_exr = os.path.join(work, "ours.exr")
+                ours_seconds = min(imsynth_render(imsynth, graph, version, ours_exr, extra)
+                                   for _ in range(a.repeat))
+                ours = compare(imsynth, ours_exr, case, version)
+                row = {"case": name, "blender": version, "cycles_samples": a.samples,
+                       "cycles_seconds": cyc_seconds, "cycles_rmse": cyc["rmse_converged"],
+                       "imsynth_seconds": ours_seconds, "imsynth_rmse": ours["rmse_converged"],
+                       "ref_mean": ours["ref_mean"], "ref_noise_rmse": ours["ref_noise_rmse"],
+                       "imsynth_options": " ".join(extra) or "defaults"}
+                rows.append(row)
+                print("%s %s: Cycles %.2f s rmse %.5f | imsynth %.3f s rmse %.5f" % (
+                    name, version, cyc_seconds, row["cycles_rmse"], ours_seconds,
+                    row["imsynth_rmse"]), file=sys.stderr, flush=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print("| case | Blender | Cycles-%d s/frame | imsynth s/frame | speed-up | Cycles-%d RMSE "
+          "| imsynth RMSE | imsynth / Cycles RMSE |" % (a.samples, a.samples))
+    print("|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print("| %s | %s | %.2f | %.3f | %.0fx | %.5f | %.5f | %.2f |" % (
+            r["case"], r["blender"], r["cycles_seconds"], r["imsynth_seconds"],
+            r["cycles_seconds"] / r["imsynth_seconds"], r["cycles_rmse"], r["imsynth_rmse"],
+            r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan")))
+    if rows:
+        geo = 1.0
+        for r in rows:
+            geo *= r["cycles_seconds"] / r["imsynth_seconds"]
+        print("\nGeometric-mean speed-up: %.0fx over %d frames; imsynth RMSE below Cycles' in "
+              "%d of %d." % (geo ** (1.0 / len(rows)), len(rows),
+                             sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in rows), len(rows)))
+    if a.out:
+        with open(a.out + ".tmp", "w") as f:
+            json.dump(rows, f, indent=1)
+        os.replace(a.out + ".tmp", a.out)
+
+
+if __name__ == "__main__":
+    main()
