@@ -17,6 +17,7 @@ static const subcommand subcommands[] = {
     {"sample", cmd_sample, "the super-shader parameter set of frame N, as JSON"},
     {"extract", cmd_extract, "the sub-shader of a super-shader for one parameter set"},
     {"export", cmd_export, "a material (sub-shader by default) for blender/import_material.py"},
+    {"compare", cmd_compare, "RMSE, bias and worst block of an image against a reference"},
 #ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
 #endif

@@ -80,6 +80,43 @@ int image_write_png(const char *path, const image *img, char *err, size_t errlen
  * source or target size); dst is then zeroed. */
 int image_resize(const image *src, int width, int height, image *dst);
 
+/* How far an image is from a reference (imsynth compare; compare.c). Metrics are over
+ * the first 3 channels (RGB), every pixel weighted equally, accumulated in double.
+ * The reference is ref_a, or the mean (a + b) / 2 of two independent renders a and b of
+ * the same scene (e.g. two halves of a Cycles reference with different seeds). */
+typedef struct image_comparison {
+    double ref_mean; /* mean of the reference over pixels and RGB */
+    double rmse;     /* sqrt(mean (img - ref)^2) */
+    double mae;      /* mean |img - ref| */
+    /* Per channel (mean img_c - mean ref_c) / mean ref_c: the relative error of the
+     * channel's mean, 0 where the reference channel's mean is 0. */
+    double bias[3];
+    /* Over the whole 16 x 16 blocks of a grid anchored at the top left (a partial last
+     * row or column of blocks is ignored), the largest |mean_block(img) -
+     * mean_block(ref)| / mean_block(ref), the means taken over the block's pixels and RGB
+     * together: the same block measure as tests/unit/test_render_reference.c, which
+     * catches a local error that the image means dilute. A block whose reference mean is
+     * 0 is measured against ref_mean instead (or counts 0 when that is 0 too). The
+     * position is in blocks (pixel x / 16, y / 16); -1, -1 and worst_block 0 when the
+     * image is smaller than one block. */
+    double worst_block;
+    int worst_block_x, worst_block_y;
+    /* Only with ref_b (has_b = 1; else both are -1). ref_noise_rmse = sqrt(mean
+     * ((a - b) / 2)^2) estimates the RMS noise of the reference (a + b) / 2 itself, and
+     * rmse_converged = sqrt(max(rmse^2 - ref_noise_rmse^2, 0)) the RMSE of img against
+     * the converged image, given img's error is independent of the reference's noise. */
+    int has_b;
+    double ref_noise_rmse, rmse_converged;
+} image_comparison;
+
+/* Compare img with ref_a, or with (ref_a + ref_b) / 2 when ref_b is not NULL. All images
+ * must have the same width and height and at least 3 channels (they may differ in
+ * channel count: extra channels are ignored). Returns 0 with *out filled, or -1 with a
+ * message in err (mismatched sizes, too few channels, or a NaN or infinite RGB value,
+ * naming the image and its first such pixel and channel); *out is then zeroed. */
+int image_compare(const image *img, const image *ref_a, const image *ref_b,
+                  image_comparison *out, char *err, size_t errlen);
+
 /* sRGB transfer functions (IEC 61966-2-1), exact piecewise form. */
 float srgb_to_linear(float v);
 float linear_to_srgb(float v);
