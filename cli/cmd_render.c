@@ -21,8 +21,13 @@ static const char *const help =
     "  -o, --output OUT.exr    the render (required; written atomically)\n"
     "  --png OUT.png           also write an sRGB PNG\n"
     "  --params P.json         bind these super-shader parameters first\n"
-    "  --spp N                 samples per pixel (default 16 in fast mode, 256 in reference)\n"
+    "  --spp N                 samples per pixel (fast mode: 4, then adaptive sampling;\n"
+    "                          reference mode: 256)\n"
     "  --light-samples N       fast mode: light/BSDF sample pairs per shading point (4)\n"
+    "  --max-spp N             fast mode: adaptive sampling; pixels whose neighbours are\n"
+    "                          noisy get up to N shading points (default 256; 0: off)\n"
+    "  --noise-target E        adaptive sampling's aim: standard error E x the local mean\n"
+    "                          (default 0.02)\n"
     "  --mode fast|reference   fast (default): low noise, same expected value;\n"
     "                          reference: plain Monte Carlo\n"
     "  --blender 4|3           BSDF and node semantics (default 4)\n"
@@ -64,7 +69,8 @@ int cmd_render(int argc, char **argv)
         int takes = !strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--png") ||
                     !strcmp(a, "--params") || !strcmp(a, "--spp") || !strcmp(a, "--mode") ||
                     !strcmp(a, "--blender") || !strcmp(a, "--threads") || !strcmp(a, "--seed") ||
-                    !strcmp(a, "--scene") || !strcmp(a, "--light-samples");
+                    !strcmp(a, "--scene") || !strcmp(a, "--light-samples") ||
+                    !strcmp(a, "--max-spp") || !strcmp(a, "--noise-target");
         if (takes && i + 1 >= argc) {
             cli_error(sub, "%s needs a value", a);
             return EXIT_USAGE;
@@ -83,6 +89,20 @@ int cmd_render(int argc, char **argv)
                 return EXIT_USAGE;
             o.spp = (int)v;
             spp_given = 1;
+        } else if (!strcmp(a, "--max-spp")) {
+            if (parse_int(sub, a, argv[++i], 0, 1 << 20, &v) < 0)
+                return EXIT_USAGE;
+            o.max_spp = (int)v;
+        } else if (!strcmp(a, "--noise-target")) {
+            const char *t = argv[++i];
+            char *end;
+            errno = 0;
+            double d = strtod(t, &end);
+            if (errno || *end || !*t || !(d > 0.0) || !(d <= 1.0)) {
+                cli_error(sub, "--noise-target: expected a number in (0, 1], got \"%s\"", t);
+                return EXIT_USAGE;
+            }
+            o.noise_target = (float)d;
         } else if (!strcmp(a, "--light-samples")) {
             if (parse_int(sub, a, argv[++i], 1, 64, &v) < 0)
                 return EXIT_USAGE;
@@ -182,10 +202,11 @@ int cmd_render(int argc, char **argv)
     if (want_stats)
         fprintf(stderr,
                 "imsynth render: %.3f s, %llu camera rays, %llu shading points, %llu shadow "
-                "rays, %llu indirect hits\n",
+                "rays, %llu indirect hits, %llu shading points added by adaptive sampling\n",
                 st.seconds, (unsigned long long)st.camera_rays,
                 (unsigned long long)st.shading_points, (unsigned long long)st.shadow_rays,
-                (unsigned long long)st.indirect_hits);
+                (unsigned long long)st.indirect_hits,
+                (unsigned long long)st.extra_shading_points);
     if (image_write_exr(out_path, &img, want_float ? IMAGE_EXR_FLOAT : IMAGE_EXR_HALF, err,
                         sizeof err) < 0 ||
         (png_path && image_write_png(png_path, &img, err, sizeof err) < 0)) {

@@ -61,7 +61,8 @@ static float stratum(int k, int n, float r)
     return fminf(((float)k + r) / (float)n, 0x1.fffffep-1f);
 }
 
-/* A pixel's fast-mode sub-samples, all spp x n of them, share one stratification of each
+/* A set of a pixel's fast-mode sub-samples, all strata x n of them (the pixel's spp shading
+ * points, or the extra ones adaptive sampling adds), share one stratification of each
  * 2D sampling domain (light, BSDF): sub-sample g = sample * n + j gets cell
  * permute(g) of a jittered m x m grid when spp x n = m^2, else a Latin hypercube
  * (independent permutations per dimension). Permutations are random per pixel, so every
@@ -134,7 +135,8 @@ static void bsdf_estimate(const shade_setup *s, const shading_geometry *g,
 }
 
 void shade_point(const shade_setup *s, const shading_geometry *g, const principled_inputs *in,
-                 uint32_t pixel, uint32_t sample, float L[3], shade_counters *cnt)
+                 uint32_t pixel, uint32_t sample, uint32_t first, uint32_t strata, float L[3],
+                 shade_counters *cnt)
 {
     L[0] = L[1] = L[2] = 0.0f;
     principled_closure bsdf;
@@ -157,15 +159,21 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
     float acc[3] = {0, 0, 0}, cut[3] = {0, 0, 0};
     for (int j = 0; j < n; j++) {
         uint32_t sub = sample * 64u + (uint32_t)j; /* n <= 64 */
-        uint32_t gi = sample * (uint32_t)n + (uint32_t)j, total = (uint32_t)(s->spp * n);
+        /* This shading point's set of samples (first .. first + strata - 1) is stratified
+         * on its own; its permutations differ from other sets' (salted by first). */
+        uint32_t gi = (sample - first) * (uint32_t)n + (uint32_t)j, total = strata * (uint32_t)n;
+        uint32_t set_salt = first * 0x9e3779b9u;
         float lu[2], bu2[2];
-        stratified_2d(s, pixel, gi, total, 1, render_random(s->seed, pixel, sub, DIM_LIGHT_U),
+        stratified_2d(s, pixel, gi, total, 1u ^ set_salt,
+                      render_random(s->seed, pixel, sub, DIM_LIGHT_U),
                       render_random(s->seed, pixel, sub, DIM_LIGHT_V), lu);
         if (s->light)
             light_estimate(s, g, &bsdf, lu[0], lu[1], acc, cnt);
-        stratified_2d(s, pixel, gi, total, 2, render_random(s->seed, pixel, sub, DIM_BSDF_U),
+        stratified_2d(s, pixel, gi, total, 2u ^ set_salt,
+                      render_random(s->seed, pixel, sub, DIM_BSDF_U),
                       render_random(s->seed, pixel, sub, DIM_BSDF_V), bu2);
-        float bw = stratum((int)render_permute(gi, total, s->seed ^ ((uint64_t)pixel << 24) ^ 3u),
+        float bw = stratum((int)render_permute(gi, total, s->seed ^ ((uint64_t)pixel << 24) ^
+                                                              (3u ^ set_salt)),
                            (int)total, render_random(s->seed, pixel, sub, DIM_BSDF_W));
         float bu[3] = {bu2[0], bu2[1], bw};
         if (s->light)

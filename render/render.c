@@ -10,6 +10,18 @@
  * fast mode stratifies the filter positions of a pixel's spp shading points (a Latin
  * hypercube over the filter's two dimensions), which anti-aliases textures with few
  * shading points; reference mode draws them independently.
+ *
+ * Adaptive sampling (fast mode, max_spp > spp). Where the material sparkles (a sharp bump
+ * under a glossy highlight) a pixel's value depends on where in the 3 px filter its
+ * shading points fall, and only more shading points there reduce that noise; elsewhere
+ * spp is plenty. So the render has two phases: phase 1 renders spp shading points in
+ * every pixel and records each pixel's sample variance; phase 2 gives a pixel k^2 more
+ * shading points (a stratified set of its own) when its neighbours' variance says its
+ * mean is noisier than noise_target. The decision for a pixel reads only its 8
+ * neighbours' phase-1 samples, never its own: its own samples are then independent of
+ * how many it gets, and the pixel stays unbiased (a pixel deciding from its own samples
+ * would keep the ones that happened to miss a rare highlight). The image is the mean of
+ * all the pixel's shading points.
  */
 #include <pthread.h>
 #include <stdio.h>
@@ -75,11 +87,13 @@ void render_options_default(render_options *o)
 {
     memset(o, 0, sizeof *o);
     o->mode = RENDER_FAST;
-    o->spp = 16;
+    o->spp = 4;
     o->light_samples = 4;
     o->blender = 4;
     o->threads = 0;
     o->seed = 0;
+    o->max_spp = 256;
+    o->noise_target = 0.05f;
 }
 
 /* ---- tiles ------------------------------------------------------------------------ */
@@ -97,6 +111,11 @@ typedef struct render_job {
     shade_setup setup;
     int tiles_x, tiles_y;
     float *film; /* width * height * 3 */
+    /* Adaptive sampling: phase 1's per-pixel sample variance and mean of the shading
+     * points' channel mean, and the extra shading points phase 2 renders. */
+    float *variance, *mean;
+    uint32_t *extra;
+    int phase; /* 1 or 2 */
     pthread_mutex_t lock;
     int next_tile;
     render_stats stats;
@@ -106,7 +125,7 @@ typedef struct render_job {
 /* One thread's batch of shading points waiting for the evaluator. */
 typedef struct batch {
     int n;
-    uint32_t pixel[BATCH], sample[BATCH];
+    uint32_t pixel[BATCH], sample[BATCH], first[BATCH], strata[BATCH];
     shading_geometry geo[BATCH];
     float storage[48 * BATCH]; /* planar geometry fields for sg_geometry_batch */
     float out_color[3 * BATCH], out_metallic[BATCH], out_roughness[BATCH], out_ior[BATCH],
@@ -150,7 +169,7 @@ static void batch_geometry(batch *b, sg_geometry_batch *gb)
 
 /* Evaluate the batch's maps, shade every point and add it to the tile's film. Points
  * arrive in (pixel, sample) order, so each pixel's sum has a fixed order. */
-static void batch_flush(worker *w, float *tile_film, int x0, int y0, int tw)
+static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int y0, int tw)
 {
     batch *b = w->b;
     if (b->n == 0)
@@ -180,7 +199,8 @@ static void batch_flush(worker *w, float *tile_film, int x0, int y0, int tw)
         if (v3_normalize(in.N) == 0.0f)
             memcpy(in.N, b->geo[i].N, sizeof in.N);
         float L[3];
-        shade_point(&job->setup, &b->geo[i], &in, b->pixel[i], b->sample[i], L, &w->counters);
+        shade_point(&job->setup, &b->geo[i], &in, b->pixel[i], b->sample[i], b->first[i],
+                    b->strata[i], L, &w->counters);
         /* Alpha: Cycles mixes in a transparent BSDF; the camera ray continues through
          * the surface. Behind the surface there is only the world in this scene (an
          * occluded continuation is counted as an indirect hit). */
@@ -198,9 +218,37 @@ static void batch_flush(worker *w, float *tile_film, int x0, int y0, int tw)
         float *dst = &tile_film[3 * (py * tw + px)];
         for (int c = 0; c < 3; c++)
             dst[c] += L[c];
+        float v = (L[0] + L[1] + L[2]) * (1.0f / 3.0f);
+        tile_sq[py * tw + px] += v * v;
     }
     w->shading_points += (uint64_t)n;
     b->n = 0;
+}
+
+/* Filter offset (in pixels, from the pixel centre) of shading point s of the set
+ * first .. first + count - 1. fast mode stratifies the set: a jittered grid when count is
+ * a square, else a Latin hypercube. */
+static void filter_offset(const render_job *job, uint32_t pixel, int s, int first, int count,
+                          float *dx, float *dy)
+{
+    const render_options *o = job->opt;
+    float fu = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_X);
+    float fv = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_Y);
+    if (o->mode == RENDER_FAST) {
+        int k = s - first;
+        int m = (int)(sqrt((double)count) + 0.5);
+        if (m * m == count) {
+            fu = fminf(((float)(k % m) + fu) / (float)m, 0x1.fffffep-1f);
+            fv = fminf(((float)(k / m) + fv) / (float)m, 0x1.fffffep-1f);
+        } else {
+            uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + pixel + (uint64_t)first * 0x2545f491ull;
+            uint32_t sy = render_permute((uint32_t)k, (uint32_t)count, key);
+            fu = fminf(((float)k + fu) / (float)count, 0x1.fffffep-1f);
+            fv = fminf(((float)sy + fv) / (float)count, 0x1.fffffep-1f);
+        }
+    }
+    *dx = pixel_filter_sample(&job->filter, fu);
+    *dy = pixel_filter_sample(&job->filter, fv);
 }
 
 static void render_tile(worker *w, int tile)
@@ -211,31 +259,23 @@ static void render_tile(worker *w, int tile)
     int x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
     int tw = cam->width - x0 < TILE ? cam->width - x0 : TILE;
     int th = cam->height - y0 < TILE ? cam->height - y0 : TILE;
-    float tile_film[3 * TILE * TILE];
+    float tile_film[3 * TILE * TILE], tile_sq[TILE * TILE];
     memset(tile_film, 0, sizeof tile_film);
-    int spp = o->spp;
-
+    memset(tile_sq, 0, sizeof tile_sq);
+    const int spp = o->spp;
     for (int py = y0; py < y0 + th; py++)
         for (int px = x0; px < x0 + tw; px++) {
             uint32_t pixel = (uint32_t)(py * cam->width + px);
-            for (int s = 0; s < spp; s++) {
-                float fu = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_X);
-                float fv = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_Y);
-                if (o->mode == RENDER_FAST) {
-                    /* Jittered grid when spp is a square, else a Latin hypercube. */
-                    int m = (int)(sqrt((double)spp) + 0.5);
-                    if (m * m == spp) {
-                        fu = fminf(((float)(s % m) + fu) / (float)m, 0x1.fffffep-1f);
-                        fv = fminf(((float)(s / m) + fv) / (float)m, 0x1.fffffep-1f);
-                    } else {
-                        uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + pixel;
-                        uint32_t sy = render_permute((uint32_t)s, (uint32_t)spp, key);
-                        fu = fminf(((float)s + fu) / (float)spp, 0x1.fffffep-1f);
-                        fv = fminf(((float)sy + fv) / (float)spp, 0x1.fffffep-1f);
-                    }
-                }
-                float rx = (float)px + 0.5f + pixel_filter_sample(&job->filter, fu);
-                float ry = (float)py + 0.5f + pixel_filter_sample(&job->filter, fv);
+            int first = 0, count = spp;
+            if (job->phase == 2) {
+                first = spp;
+                count = (int)job->extra[pixel];
+            }
+            for (int s = first; s < first + count; s++) {
+                float dx, dy;
+                filter_offset(job, pixel, s, first, count, &dx, &dy);
+                float rx = (float)px + 0.5f + dx;
+                float ry = (float)py + 0.5f + dy;
                 float P[3], D[3], dP;
                 ortho_camera_ray(cam, rx, ry, P, D, &dP);
                 w->camera_rays++;
@@ -251,9 +291,12 @@ static void render_tile(worker *w, int tile)
                 rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
                 rtcIntersect1(job->scene->rtc, &ctx, &rh);
                 if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
-                    float *dst = &tile_film[3 * ((py - y0) * tw + (px - x0))];
+                    int t = (py - y0) * tw + (px - x0);
+                    const float *world = job->scene->world;
                     for (int c = 0; c < 3; c++)
-                        dst[c] += job->scene->world[c];
+                        tile_film[3 * t + c] += world[c];
+                    float v = (world[0] + world[1] + world[2]) * (1.0f / 3.0f);
+                    tile_sq[t] += v * v;
                     continue;
                 }
                 batch *b = w->b;
@@ -261,17 +304,78 @@ static void render_tile(worker *w, int tile)
                                         rh.hit.v, D, dP, &b->geo[b->n]);
                 b->pixel[b->n] = pixel;
                 b->sample[b->n] = (uint32_t)s;
+                b->first[b->n] = (uint32_t)first;
+                b->strata[b->n] = (uint32_t)count;
                 if (++b->n == BATCH)
-                    batch_flush(w, tile_film, x0, y0, tw);
+                    batch_flush(w, tile_film, tile_sq, x0, y0, tw);
             }
         }
-    batch_flush(w, tile_film, x0, y0, tw);
+    batch_flush(w, tile_film, tile_sq, x0, y0, tw);
     /* Tiles do not overlap: no lock needed to write the film. */
     for (int y = 0; y < th; y++)
-        for (int x = 0; x < tw; x++)
-            for (int c = 0; c < 3; c++)
-                job->film[3 * ((size_t)(y0 + y) * (size_t)cam->width + (size_t)(x0 + x)) + c] =
-                    tile_film[3 * (y * tw + x) + c] / (float)spp;
+        for (int x = 0; x < tw; x++) {
+            size_t pixel = (size_t)(y0 + y) * (size_t)cam->width + (size_t)(x0 + x);
+            const float *sum = &tile_film[3 * (y * tw + x)];
+            float *dst = &job->film[3 * pixel];
+            if (job->phase == 1) {
+                for (int c = 0; c < 3; c++)
+                    dst[c] = sum[c] / (float)spp;
+                if (job->variance) {
+                    double sv = ((double)sum[0] + sum[1] + sum[2]) / 3.0;
+                    double mean = sv / spp;
+                    double var = spp > 1 ? (tile_sq[y * tw + x] - sv * mean) / (spp - 1) : 0.0;
+                    job->variance[pixel] = (float)(var > 0.0 ? var : 0.0);
+                    job->mean[pixel] = (float)mean;
+                }
+            } else {
+                uint32_t extra = job->extra[pixel];
+                if (extra == 0)
+                    continue;
+                for (int c = 0; c < 3; c++)
+                    dst[c] = (dst[c] * (float)spp + sum[c]) / (float)(spp + (int)extra);
+            }
+        }
+}
+
+/* Phase 2's plan: for each pixel, from its 8 neighbours' phase-1 statistics (never its
+ * own: see the top of the file), the number of extra shading points that brings the
+ * standard error of its mean to noise_target x the neighbours' mean (at least 0.01: dark
+ * pixels need no relative precision), as a square k^2 (a stratified set), with
+ * spp + k^2 <= max_spp. Returns the total number of extra shading points. */
+static uint64_t plan_extra_samples(render_job *job)
+{
+    const render_options *o = job->opt;
+    int w = job->camera.width, h = job->camera.height;
+    int kmax = (int)sqrt((double)(o->max_spp - o->spp));
+    uint64_t total = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double var = 0.0, mean = 0.0;
+            int n = 0;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int nx = x + dx, ny = y + dy;
+                    if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h)
+                        continue;
+                    size_t q = (size_t)ny * (size_t)w + (size_t)nx;
+                    if (job->variance[q] > var)
+                        var = job->variance[q];
+                    mean += job->mean[q];
+                    n++;
+                }
+            mean = n > 0 ? mean / n : 0.0;
+            double eps = o->noise_target * (mean > 0.01 ? mean : 0.01);
+            double need = var / (eps * eps) - o->spp; /* shading points beyond phase 1 */
+            int k = 0;
+            if (need > 0.0) {
+                k = (int)ceil(sqrt(need));
+                if (k > kmax)
+                    k = kmax;
+            }
+            job->extra[(size_t)y * (size_t)w + (size_t)x] = (uint32_t)(k * k);
+            total += (uint64_t)(k * k);
+        }
+    return total;
 }
 
 static void *worker_main(void *arg)
@@ -302,6 +406,16 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     memset(out, 0, sizeof *out);
     if (o->spp < 1 || o->spp > (1 << 20)) {
         snprintf(err, errlen, "samples per pixel must be in [1, 2^20] (got %d)", o->spp);
+        return -1;
+    }
+    if (o->max_spp > (1 << 20)) {
+        snprintf(err, errlen, "maximum samples per pixel must be at most 2^20 (got %d)",
+                 o->max_spp);
+        return -1;
+    }
+    if (!(o->noise_target > 0.0f) || !isfinite(o->noise_target)) {
+        snprintf(err, errlen, "noise target must be a positive number (got %g)",
+                 (double)o->noise_target);
         return -1;
     }
     if (o->mode == RENDER_FAST && (o->light_samples < 1 || o->light_samples > 64)) {
@@ -336,7 +450,6 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     job->setup.blender = o->blender;
     job->setup.mode = o->mode;
     job->setup.light_samples = o->light_samples;
-    job->setup.spp = o->spp;
     job->setup.seed = o->seed;
     if (s->n_lights > 0) {
         job->light = s->lights[0];
@@ -353,6 +466,23 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         return -1;
     }
     job->film = out->pixels;
+    /* Adaptive sampling needs room for at least one extra 1x1 set. */
+    int adaptive = o->mode == RENDER_FAST && o->max_spp > o->spp;
+    size_t npix = (size_t)width * (size_t)height;
+    if (adaptive) {
+        job->variance = malloc(npix * sizeof *job->variance);
+        job->mean = malloc(npix * sizeof *job->mean);
+        job->extra = malloc(npix * sizeof *job->extra);
+        if (!job->variance || !job->mean || !job->extra) {
+            free(job->variance);
+            free(job->mean);
+            free(job->extra);
+            free(job);
+            image_free(out);
+            snprintf(err, errlen, "out of memory for a %dx%d image", width, height);
+            return -1;
+        }
+    }
     pthread_mutex_init(&job->lock, NULL);
 
     int nthreads = o->threads;
@@ -374,8 +504,13 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         else
             workers[i].b->n = 0;
     }
-    int started = 0;
-    if (ok) {
+    render_stats st = {0};
+    for (int phase = 1; ok && phase <= (adaptive ? 2 : 1); phase++) {
+        job->phase = phase;
+        job->next_tile = 0;
+        if (phase == 2)
+            st.extra_shading_points = plan_extra_samples(job);
+        int started;
         for (started = 1; started < nthreads; started++)
             if (pthread_create(&tids[started], NULL, worker_main, &workers[started]) != 0)
                 break;
@@ -383,7 +518,6 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         for (int i = 1; i < started; i++)
             pthread_join(tids[i], NULL);
     }
-    render_stats st = {0};
     for (int i = 0; workers && i < nthreads; i++) {
         st.camera_rays += workers[i].camera_rays;
         st.shading_points += workers[i].shading_points;
@@ -396,6 +530,9 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     free(workers);
     free(tids);
     pthread_mutex_destroy(&job->lock);
+    free(job->variance);
+    free(job->mean);
+    free(job->extra);
     free(job);
     st.seconds = now_seconds() - t0;
     if (stats)

@@ -46,12 +46,18 @@ typedef enum render_mode {
 
 typedef struct render_options {
     render_mode mode;
-    int spp;           /* samples per pixel: paths (reference) or shading points (fast) */
+    int spp;           /* samples per pixel: paths (reference) or shading points (fast;
+                          with adaptive sampling, the first phase's) */
     int light_samples; /* fast mode: light and BSDF sample pairs per shading point */
     int blender;       /* 4 (default) or 3: BSDF semantics; light model follows */
     int threads;       /* 0 = all cores */
     uint64_t seed;
     int width, height; /* 0 = the scene's resolution */
+    /* fast mode, adaptive sampling (render.c): pixels whose neighbours are noisy get up to
+     * max_spp shading points in all (0 or <= spp: off), aiming at a standard error of
+     * noise_target x the local mean. Defaults: spp 4, max_spp 256, noise_target 0.05. */
+    int max_spp;
+    float noise_target;
 } render_options;
 
 void render_options_default(render_options *o);
@@ -60,6 +66,7 @@ void render_options_default(render_options *o);
 typedef struct render_stats {
     double seconds;
     uint64_t camera_rays, shading_points, shadow_rays;
+    uint64_t extra_shading_points; /* added by adaptive sampling */
     /* Rays leaving a surface that hit geometry again. This integrator stops there (the
      * scene's plane cannot see itself); a scene where this is non-zero needs more bounces
      * and the render is then darker than Cycles'. */

@@ -167,7 +167,6 @@ typedef struct shade_setup {
     int blender;
     render_mode mode;
     int light_samples; /* fast mode */
-    int spp;           /* fast mode: shading points per pixel (stratification) */
     uint64_t seed;
 } shade_setup;
 
@@ -177,9 +176,11 @@ typedef struct shade_counters {
 
 /* Radiance leaving shading point g towards the camera (along g->I): direct light from the
  * point light and the world, through the BSDF `in`. `sample` selects the random numbers
- * (reference: one path; fast: one shading point with light_samples pairs). */
+ * (reference: one path; fast: one shading point with light_samples pairs); in fast mode
+ * the pixel's samples first .. first + strata - 1 form one stratified set. */
 void shade_point(const shade_setup *s, const shading_geometry *g, const principled_inputs *in,
-                 uint32_t pixel, uint32_t sample, float L[3], shade_counters *cnt);
+                 uint32_t pixel, uint32_t sample, uint32_t first, uint32_t strata, float L[3],
+                 shade_counters *cnt);
 
 /* Whether the segment from P (offset along Ng) in direction wi hits scene geometry
  * closer than tmax. */

@@ -302,18 +302,26 @@ static void test_threads_do_not_change_bits(void **state)
     render_scene *s = load_scene();
     render_material *m = test_material(4);
     char err[512];
-    for (int mode = 0; mode < 2; mode++) {
+    /* mode 2: fast with adaptive sampling, whose second phase reads neighbours across
+     * tiles rendered by other threads. */
+    for (int mode = 0; mode < 3; mode++) {
         image img[3];
         for (int t = 0; t < 3; t++) {
             render_options o;
             render_options_default(&o);
-            o.mode = mode ? RENDER_REFERENCE : RENDER_FAST;
+            o.mode = mode == 1 ? RENDER_REFERENCE : RENDER_FAST;
             o.width = o.height = 40; /* not a multiple of the tile size */
             o.spp = 4;
+            o.max_spp = mode == 2 ? 64 : 0;
             o.threads = t + 1;
             o.seed = 11;
-            if (render_image(s, m, &o, &img[t], NULL, err, sizeof err) < 0)
+            render_stats st;
+            if (render_image(s, m, &o, &img[t], &st, err, sizeof err) < 0)
                 fail_msg("%s", err);
+            if (mode == 2)
+                assert_true(st.extra_shading_points > 0);
+            else
+                assert_true(st.extra_shading_points == 0);
         }
         size_t bytes = sizeof(float) * 3 * 40 * 40;
         assert_memory_equal(img[0].pixels, img[1].pixels, bytes);
@@ -326,12 +334,15 @@ static void test_threads_do_not_change_bits(void **state)
 }
 
 /* Fast and reference modes estimate the same image: compare 8x8-pixel block means,
- * each against the two modes' combined noise measured from two seeds. */
+ * each against the two modes' combined noise measured from two seeds. Fast mode with
+ * adaptive sampling too: its extra shading points depend on the neighbours' noise, and
+ * must not bias a pixel. */
 static void test_fast_matches_reference(void **state)
 {
     (void)state;
     render_scene *s = load_scene();
-    for (int blender = 3; blender <= 4; blender++) {
+    for (int variant = 0; variant < 4; variant++) {
+        int blender = variant % 2 ? 3 : 4, adaptive = variant >= 2;
         render_material *m = test_material(blender);
         char err[512];
         enum { W = 32, B = 8, NB = (W / B) * (W / B) };
@@ -342,7 +353,9 @@ static void test_fast_matches_reference(void **state)
             o.blender = blender;
             o.width = o.height = W;
             o.seed = (uint64_t)k + 1;
-            o.spp = 16;
+            o.spp = adaptive ? 4 : 16;
+            o.max_spp = adaptive ? 64 : 0;
+            o.noise_target = 0.05f;
             if (render_image(s, m, &o, &fast[k], NULL, err, sizeof err) < 0)
                 fail_msg("%s", err);
             o.mode = RENDER_REFERENCE;
@@ -382,8 +395,8 @@ static void test_fast_matches_reference(void **state)
             total_r += r;
             total_var += sigma * sigma;
             if (fabs(f - r) > 4.5 * sigma + 1e-5 * r) {
-                print_message("blender %d block %d: fast %.4f ref %.4f sigma %.4f\n", blender,
-                              b, f, r, sigma);
+                print_message("blender %d%s block %d: fast %.4f ref %.4f sigma %.4f\n", blender,
+                              adaptive ? " adaptive" : "", b, f, r, sigma);
                 bad++;
             }
         }
@@ -392,8 +405,8 @@ static void test_fast_matches_reference(void **state)
         double sig = sqrt(total_var);
         assert_true(sig < 0.01 * total_r);
         if (fabs(total_f - total_r) > 4.0 * sig)
-            fail_msg("blender %d image: fast %.4f ref %.4f sigma %.4f", blender, total_f,
-                     total_r, sig);
+            fail_msg("blender %d%s image: fast %.4f ref %.4f sigma %.4f", blender,
+                     adaptive ? " adaptive" : "", total_f, total_r, sig);
         for (int k = 0; k < 2; k++) {
             image_free(&fast[k]);
             image_free(&ref[k]);

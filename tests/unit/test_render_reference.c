@@ -10,7 +10,10 @@
  *   - every 16x16 block's mean within 3% (+ 3 sigma of its noise).
  *
  * Ours is rendered twice with two seeds too, so its own noise is measured the same way.
- * fast mode runs on every case and version; reference mode (plain Monte Carlo) is slow
+ * fast mode with its defaults (4 shading points per pixel, adaptive sampling up to 256 where
+ * the neighbours are noisy) runs on every case and version, and without adaptive sampling
+ * (16 everywhere) on the materials that do not sparkle; reference mode (plain Monte Carlo)
+ * is slow
  * to converge, so CI runs it on a subset at 64 samples (its noise is then accounted for
  * as above) and IMSYNTH_RENDER_REFERENCE_FULL=1 runs it on every case. A case whose
  * reference halves are not there yet is reported and skipped (the lead commits them as
@@ -38,6 +41,10 @@
 /* Reference mode in CI: a diffuse, a glossy metal and a dielectric. */
 static const char *const reference_mode_subset[] = {"diffuse_white", "metal_r030",
                                                     "dielectric_r050"};
+/* Fast mode without adaptive sampling (16 shading points everywhere): materials without
+ * sparkling bumps, where 16 suffice to converge. */
+static const char *const fixed_spp_subset[] = {"diffuse_grey", "metal_r005", "dielectric_r005",
+                                               "gold", "noise_driven", "strong_bump"};
 
 typedef struct metrics {
     double ref_mean, mae, ref_noise, our_noise, bias[3], bias_sigma[3], worst_block,
@@ -106,12 +113,18 @@ static int file_exists(const char *path)
     return access(path, R_OK) == 0;
 }
 
-static int in_subset(const char *name)
+static int in_list(const char *name, const char *const *list, size_t n)
 {
-    for (size_t i = 0; i < sizeof reference_mode_subset / sizeof *reference_mode_subset; i++)
-        if (!strcmp(name, reference_mode_subset[i]))
+    for (size_t i = 0; i < n; i++)
+        if (!strcmp(name, list[i]))
             return 1;
     return 0;
+}
+
+static int in_subset(const char *name)
+{
+    return in_list(name, reference_mode_subset,
+                   sizeof reference_mode_subset / sizeof *reference_mode_subset);
 }
 
 static int cmp_str(const void *a, const void *b)
@@ -133,7 +146,8 @@ static bool graph_has_bump(const char *name)
     return strstr(text, "ShaderNodeBump") != NULL;
 }
 
-/* subset: 1 = reference_mode_subset only, 2 = the first case with a reference. */
+/* subset: 1 = reference_mode_subset only, 2 = the first case with a reference,
+ * 3 = fixed_spp_subset (fast mode at 16 shading points per pixel, no adaptive sampling). */
 static int run_mode(render_mode mode, int subset, int *n_compared)
 {
     char err[1024];
@@ -157,7 +171,9 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
     static const struct { const char *tag; int blender; } versions[] = {{"3.4", 3}, {"4.3", 4}};
     for (int ci = 0; ci < n_names; ci++) {
         const char *name = names[ci];
-        if ((subset == 1 && !in_subset(name)) || (subset == 2 && compared > 0))
+        if ((subset == 1 && !in_subset(name)) || (subset == 2 && compared > 0) ||
+            (subset == 3 &&
+             !in_list(name, fixed_spp_subset, sizeof fixed_spp_subset / sizeof *fixed_spp_subset)))
             continue;
         /* The sanitizer run of scripts/test (IMSYNTH_TEST_QUICK) skips materials with a
          * Bump: their bumped-albedo world term makes a frame ~15x slower, and the
@@ -193,7 +209,13 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
                 render_options_default(&o);
                 o.mode = mode;
                 o.blender = versions[vi].blender;
-                o.spp = mode == RENDER_FAST ? 16 : 64;
+                /* fast: the defaults (4 shading points, adaptive up to 256) */
+                if (mode == RENDER_REFERENCE)
+                    o.spp = 64;
+                if (subset == 3) {
+                    o.spp = 16;
+                    o.max_spp = 0;
+                }
                 o.seed = (uint64_t)k + 1;
                 o.width = a.width;
                 o.height = a.height;
@@ -212,7 +234,8 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
             print_message("%-16s %s %-9s mean %.4f | MAE %.2f%% (ref noise %.2f%%, ours %.2f%%) | "
                           "bias %+.2f%% %+.2f%% %+.2f%% | worst block %.2f%% (allowed %.2f%%) "
                           "at (%d,%d) | %.2f s | %s\n",
-                          name, versions[vi].tag, mode == RENDER_FAST ? "fast" : "reference",
+                          name, versions[vi].tag,
+                          subset == 3 ? "fast-16" : mode == RENDER_FAST ? "fast" : "reference",
                           mt.ref_mean, 100 * mt.mae / mt.ref_mean,
                           100 * mt.ref_noise / mt.ref_mean, 100 * mt.our_noise / mt.ref_mean,
                           100 * mt.bias[0], 100 * mt.bias[1], 100 * mt.bias[2],
@@ -256,10 +279,20 @@ static void test_reference_mode_matches_cycles(void **state)
         fail_msg("no Cycles reference found under %s", CASES);
 }
 
+static void test_fixed_spp_fast_mode_matches_cycles(void **state)
+{
+    (void)state;
+    int n;
+    assert_int_equal(run_mode(RENDER_FAST, 3, &n), 0);
+    if (n == 0)
+        fail_msg("no Cycles reference for the fixed-spp subset under %s", CASES);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fast_mode_matches_cycles),
+        cmocka_unit_test(test_fixed_spp_fast_mode_matches_cycles),
         cmocka_unit_test(test_reference_mode_matches_cycles),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
