@@ -2,27 +2,9 @@
 # imsynth compare end to end on a committed Cycles reference (its two halves): exit codes,
 # --json parses and its numbers are consistent (rmse > 0, rmse_converged <= rmse, an image
 # against itself 0), errors name the file. Usage: compare.sh IMSYNTH REPO_ROOT
-set -u
 imsynth=$1
 root=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-check() { # description, expected exit code, actual exit code
-    if [ "$2" != "$3" ]; then
-        echo "FAIL: $1: exit $3, expected $2"; failures=$((failures + 1))
-    else
-        echo "ok: $1"
-    fi
-}
-expect_stderr() { # description, fragment
-    if grep -q -- "$2" "$tmp/err"; then echo "ok: $1"; else
-        echo "FAIL: $1: stderr lacks \"$2\":"; cat "$tmp/err"; failures=$((failures + 1)); fi
-}
-expect_stdout() { # description, fragment
-    if grep -q -- "$2" "$tmp/out"; then echo "ok: $1"; else
-        echo "FAIL: $1: stdout lacks \"$2\":"; cat "$tmp/out"; failures=$((failures + 1)); fi
-}
+. "$root/tests/cli/lib/harness.sh"
 # json_true description, python expression over the parsed object j (stdout in $tmp/out)
 # and ab (the A against B result, once saved)
 json_true() {
@@ -83,5 +65,4 @@ if command -v python3 > /dev/null; then
     json_true "ref_mean > 0" 'j["ref_mean"] > 0'
 fi
 
-[ "$failures" = 0 ] || { echo "$failures failure(s)"; exit 1; }
-echo "all ok"
+finish

@@ -1,23 +1,9 @@
 #!/bin/sh
 # imsynth describe end to end: .npy shape and size, exit codes, errors naming the file,
 # no output (nor temporary file) left by a failed run. Usage: describe.sh IMSYNTH REPO_ROOT
-set -u
 imsynth=$1
 root=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-check() { # description, expected exit code, actual exit code
-    if [ "$2" != "$3" ]; then
-        echo "FAIL: $1: exit $3, expected $2"; failures=$((failures + 1))
-    else
-        echo "ok: $1"
-    fi
-}
-expect_stderr() { # description, fragment
-    if grep -q -- "$2" "$tmp/err"; then echo "ok: $1"; else
-        echo "FAIL: $1: stderr lacks \"$2\":"; cat "$tmp/err"; failures=$((failures + 1)); fi
-}
+. "$root/tests/cli/lib/harness.sh"
 expect_size() { # description, file, bytes
     size=$(wc -c < "$2" 2>/dev/null || echo missing)
     if [ "$size" = "$3" ]; then echo "ok: $1"; else

@@ -1,23 +1,9 @@
 #!/bin/sh
 # imsynth eval-graph end to end: output files, exit codes, and error messages that
 # name the file and the place. Usage: eval_graph.sh IMSYNTH REPO_ROOT
-set -u
 imsynth=$1
 root=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-check() { # description, expected exit code, actual exit code
-    if [ "$2" != "$3" ]; then
-        echo "FAIL: $1: exit $3, expected $2"; failures=$((failures + 1))
-    else
-        echo "ok: $1"
-    fi
-}
-expect_stderr() { # description, fragment
-    if grep -q -- "$2" "$tmp/err"; then echo "ok: $1"; else
-        echo "FAIL: $1: stderr lacks \"$2\":"; cat "$tmp/err"; failures=$((failures + 1)); fi
-}
+. "$root/tests/cli/lib/harness.sh"
 
 "$imsynth" --version > "$tmp/out"; check "--version" 0 $?
 grep -q "^imsynth [0-9]" "$tmp/out" || { echo "FAIL: version text"; failures=$((failures + 1)); }

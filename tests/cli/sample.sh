@@ -2,23 +2,9 @@
 # imsynth sample end to end, and the super-shader asset in step with its generator:
 # exit codes, 50 parameters a frame, determinism, -o equal to stdout, --bound-graph
 # evaluates, errors naming the file. Usage: sample.sh IMSYNTH REPO_ROOT
-set -u
 imsynth=$1
 root=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-check() { # description, expected exit code, actual exit code
-    if [ "$2" != "$3" ]; then
-        echo "FAIL: $1: exit $3, expected $2"; failures=$((failures + 1))
-    else
-        echo "ok: $1"
-    fi
-}
-expect_stderr() { # description, fragment
-    if grep -q -- "$2" "$tmp/err"; then echo "ok: $1"; else
-        echo "FAIL: $1: stderr lacks \"$2\":"; cat "$tmp/err"; failures=$((failures + 1)); fi
-}
+. "$root/tests/cli/lib/harness.sh"
 same() { # description, file, file
     if cmp -s "$2" "$3"; then echo "ok: $1"; else
         echo "FAIL: $1: $2 and $3 differ"; failures=$((failures + 1)); fi
@@ -68,5 +54,4 @@ if command -v python3 > /dev/null; then
     same "assets/supershader.md is generated" "$root/assets/supershader.md" "$tmp/s.md"
 fi
 
-[ "$failures" = 0 ] || { echo "$failures failure(s)"; exit 1; }
-echo "all ok"
+finish
