@@ -226,16 +226,26 @@ static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int
 }
 
 /* Filter offset (in pixels, from the pixel centre) of shading point s of the set
- * first .. first + count - 1. fast mode stratifies the set: a jittered grid when count is
- * a square, else a Latin hypercube. */
+ * first .. first + count - 1. fast mode stratifies the set, a jittered grid when count is
+ * a square, else a Latin hypercube, and pairs its points antithetically: point k of the
+ * second half is point count - 1 - k reflected through the pixel centre (u -> 1 - u in
+ * each filter dimension, which the symmetric filter maps to -offset). Each point is still
+ * uniform in filter space, so the estimate stays unbiased, and a pair's mean is exact for
+ * anything linear across the filter: the light's fall-off across a 3 px footprint was most
+ * of a smooth material's noise. On a square grid the reflected point lies in the
+ * reflected cell, so the grid's stratification is kept. */
 static void filter_offset(const render_job *job, uint32_t pixel, int s, int first, int count,
                           float *dx, float *dy)
 {
     const render_options *o = job->opt;
-    float fu = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_X);
-    float fv = render_random(o->seed, pixel, (uint32_t)s, DIM_FILTER_Y);
+    int k = s - first;
+    int mirrored = o->mode == RENDER_FAST && k > count - 1 - k;
+    if (mirrored)
+        k = count - 1 - k;
+    uint32_t sample = (uint32_t)(first + k);
+    float fu = render_random(o->seed, pixel, sample, DIM_FILTER_X);
+    float fv = render_random(o->seed, pixel, sample, DIM_FILTER_Y);
     if (o->mode == RENDER_FAST) {
-        int k = s - first;
         int m = (int)(sqrt((double)count) + 0.5);
         if (m * m == count) {
             fu = fminf(((float)(k % m) + fu) / (float)m, 0x1.fffffep-1f);
@@ -249,6 +259,10 @@ static void filter_offset(const render_job *job, uint32_t pixel, int s, int firs
     }
     *dx = pixel_filter_sample(&job->filter, fu);
     *dy = pixel_filter_sample(&job->filter, fv);
+    if (mirrored) {
+        *dx = -*dx;
+        *dy = -*dy;
+    }
 }
 
 static void render_tile(worker *w, int tile)
