@@ -1,11 +1,14 @@
 /*
  * Renderer benchmark (run by hand; results go to BENCHMARKS.md):
  *   1. every reference case under tests/reference/render with a Cycles reference: time per
- *      frame in fast mode (256x256, default options) and RMSE against the reference
- *      (mean of the two halves), next to the reference's own noise RMSE ((a - b) / 2);
+ *      frame in fast mode (256x256, default options: adaptive sampling) and RMSE against
+ *      the reference (mean of the two halves) with the reference's own noise taken out
+ *      (sqrt(RMSE^2 - noise^2)), next to that noise's RMSE ((a - b) / 2);
  *   2. the super-shader (assets/supershader.json) over N random parametrizations
- *      (sg_params_sample frames 0..N-1): frames per second;
- *   3. scaling of one frame of the super-shader with resolution and samples per pixel.
+ *      (sg_params_sample frames 0..N-1): frames per second, counting binding the
+ *      parameters and compiling the material as well as rendering;
+ *   3. scaling of one frame of the super-shader with resolution (default options) and
+ *      with samples per pixel (fixed, adaptive sampling off; and the default).
  *
  * usage: bench_render [--frames N] [--threads N] [--blender 3|4]
  */
@@ -26,6 +29,13 @@ static int cmp_str(const void *a, const void *b)
     return strcmp(*(char *const *)a, *(char *const *)b);
 }
 
+static double wall_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static double cpu_seconds(void)
 {
     struct timespec ts;
@@ -36,6 +46,7 @@ static double cpu_seconds(void)
 /* CPU seconds of the whole process during the last render_once (all threads): on a
  * shared, loaded machine this is steadier than wall time. */
 static double last_cpu;
+static uint64_t last_points;
 
 static double render_once(const render_scene *s, const render_material *m,
                           const render_options *o, image *out)
@@ -48,6 +59,7 @@ static double render_once(const render_scene *s, const render_material *m,
         exit(1);
     }
     last_cpu = cpu_seconds() - c0;
+    last_points = st.shading_points;
     return st.seconds;
 }
 
@@ -73,9 +85,9 @@ int main(int argc, char **argv)
     render_options_default(&o);
     o.threads = threads;
     o.blender = blender;
-    printf("# bench_render: Blender %s semantics, fast mode spp %d x %d light samples, "
-           "threads %d (0 = all)\n",
-           tag, o.spp, o.light_samples, threads);
+    printf("# bench_render: Blender %s semantics, fast mode spp %d (adaptive up to %d, noise "
+           "target %.3f) x %d light samples, threads %d (0 = all)\n",
+           tag, o.spp, o.max_spp, (double)o.noise_target, o.light_samples, threads);
 
     /* 1. reference cases */
     DIR *dir = opendir(CASES);
@@ -88,8 +100,9 @@ int main(int argc, char **argv)
     if (dir)
         closedir(dir);
     qsort(names, (size_t)n_names, sizeof *names, cmp_str);
-    printf("\n| case | wall s/frame | CPU s/frame | RMSE vs Cycles %s (4096 spp) | "
-           "reference's own noise RMSE |\n|---|---|---|---|---|\n", tag);
+    printf("\n| case | wall s/frame | CPU s/frame | shading points/pixel | RMSE vs Cycles %s "
+           "(4096 spp, its noise out) | reference's own noise RMSE |\n|---|---|---|---|---|---|\n",
+           tag);
     for (int i = 0; i < n_names; i++) {
         char pa[1024], pb[1024], gp[1024];
         snprintf(gp, sizeof gp, "%s/%s/graph.json", CASES, names[i]);
@@ -117,13 +130,14 @@ int main(int argc, char **argv)
                     se += d * d;
                     sn += 0.25 * (ra - rb) * (ra - rb);
                 }
-            printf("| %s | %.3f | %.3f | %.5f | %.5f |\n", names[i], sec, last_cpu,
-                   sqrt(se / (3.0 * n)),
-                   sqrt(sn / (3.0 * n)));
+            double mse = se / (3.0 * n), noise = sn / (3.0 * n);
+            printf("| %s | %.3f | %.3f | %.1f | %.5f | %.5f |\n", names[i], sec, last_cpu,
+                   (double)last_points / n, sqrt(mse > noise ? mse - noise : 0.0), sqrt(noise));
             image_free(&a);
             image_free(&b);
         } else {
-            printf("| %s | %.3f | %.3f | (no reference) | |\n", names[i], sec, last_cpu);
+            printf("| %s | %.3f | %.3f | %.1f | (no reference) | |\n", names[i], sec, last_cpu,
+                   (double)last_points / (img.width * img.height));
         }
         image_free(&img);
         render_material_free(m);
@@ -139,8 +153,9 @@ int main(int argc, char **argv)
         fprintf(stderr, "bench_render: %s\n", e.msg);
         return 1;
     }
-    double total = 0, worst = 0, total_cpu = 0;
+    double total = 0, worst = 0, total_cpu = 0, total_all = 0, points = 0;
     for (int f = 0; f < frames; f++) {
+        double t0 = wall_seconds();
         sg_params_sample(&p, (unsigned long long)f);
         if (sg_graph_bind_params(g, &p, &e) < 0) {
             fprintf(stderr, "bench_render: %s\n", e.msg);
@@ -153,15 +168,19 @@ int main(int argc, char **argv)
         }
         image img;
         double sec = render_once(s, m, &o, &img);
+        total_all += wall_seconds() - t0;
+        points += (double)last_points / (img.width * img.height);
         total += sec;
         total_cpu += last_cpu;
         worst = sec > worst ? sec : worst;
         image_free(&img);
         render_material_free(m);
     }
-    printf("\nsuper-shader, %d random parametrizations (frames 0..%d): %.3f s/frame mean "
-           "(%.3f CPU s), %.3f s worst, %.2f frames/s\n",
-           frames, frames - 1, total / frames, total_cpu / frames, worst, frames / total);
+    printf("\nsuper-shader, %d random parametrizations (frames 0..%d): render %.3f s/frame mean "
+           "(%.3f CPU s), %.3f s worst, %.1f shading points/pixel mean; with binding and "
+           "compiling %.3f s/frame, %.2f frames/s\n",
+           frames, frames - 1, total / frames, total_cpu / frames, worst, points / frames,
+           total_all / frames, frames / total_all);
 
     /* 3. scaling, frame 0 of the super-shader */
     sg_params_sample(&p, 0);
@@ -185,6 +204,7 @@ int main(int argc, char **argv)
     for (int k = 0; k < 4; k++) {
         render_options q = o;
         q.spp = spps[k];
+        q.max_spp = 0;
         image img;
         double sec = render_once(s, m, &q, &img);
         printf("| 256 | %d | %.3f | %.3f |\n", q.spp, sec, last_cpu);
