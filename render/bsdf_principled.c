@@ -975,6 +975,13 @@ void principled_albedo_cut_estimate(const closures *cl, const float u[3], float 
         L = diffuse_sample_direction(&cl->lobe[pick], u[0], u[1]);
     else if (!microfacet_sample_direction(cl, &cl->lobe[pick], u[0], u[1], &L))
         return;
+    /* Above Ng the cut changes nothing but 3.x's diffuse (its bump shadowing term): the
+     * microfacet lobes' cut and uncut values are the same there, and 4.x's diffuse is
+     * exact in its table. Most samples end here. */
+    const bool above = v3_dot(cl->Ng, L) > 0.0f;
+    const bool diffuse_3x = cl->blender == 3 && cl->lobe[LOBE_DIFFUSE].active;
+    if (above && !diffuse_3x)
+        return;
     /* The mixture density of that sampling, wherever L points. */
     float q = 0.0f;
     for (int i = 0; i < N_LOBES; i++) {
@@ -989,8 +996,10 @@ void principled_albedo_cut_estimate(const closures *cl, const float u[3], float 
         return;
     for (int i = 0; i < N_LOBES; i++) {
         const lobe *l = &cl->lobe[i];
-        /* 4.x's diffuse table already includes the cut and the shadowing term. */
-        if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4))
+        /* 4.x's diffuse table already includes the cut and the shadowing term; above Ng
+         * only 3.x's diffuse differs from its uncut value. */
+        if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4) ||
+            (above && i != LOBE_DIFFUSE))
             continue;
         float f[3], g[3], p;
         if (i == LOBE_DIFFUSE) {
