@@ -5,14 +5,17 @@ reference (tests/reference/render/supershader_s*/, 2 x 2048 samples).
 
     python3 tests/bench/bench_render_cycles.py [--versions 4.3,3.4] [--samples 252]
         [--cases supershader_s0,...] [--imsynth PATH] [--repeat 3] [--out results.json]
-        [-- extra imsynth render options, e.g. --spp 4]
+        [--config "imsynth render options"]...
+
+Each --config is one imsynth configuration to time against the same Cycles render (e.g.
+--config "" for the defaults, --config "--max-spp 0 --spp 16"); default: the defaults.
 
 Per case and Blender version:
   Cycles   one render of `samples` samples (seed 3, independent of the reference's seeds 1
            and 2) by blender/render_reference.py: seconds is the render inside Blender,
            excluding Blender's start-up and the scene building; Cycles uses every core.
-  imsynth  `imsynth render GRAPH --blender 3|4` with default options (plus the extra
-           options), `repeat` times: seconds is the render inside the process (imsynth
+  imsynth  `imsynth render GRAPH --blender 3|4` with each configuration's options,
+           `repeat` times: seconds is the render inside the process (imsynth
            --stats: excluding start-up, graph loading and compiling), the best of the
            repeats; every core.
   RMSE     `imsynth compare IMAGE REF_A REF_B --json`: rmse_converged, the RMSE against the
@@ -68,11 +71,8 @@ def imsynth_render(imsynth, graph, version, out, extra):
 
 def main():
     argv = sys.argv[1:]
-    extra = []
-    if "--" in argv:
-        extra = argv[argv.index("--") + 1:]
-        argv = argv[:argv.index("--")]
     p = argparse.ArgumentParser()
+    p.add_argument("--config", action="append")
     p.add_argument("--versions", default="4.3")
     p.add_argument("--samples", type=int, default=252)
     p.add_argument("--cases")
@@ -80,6 +80,7 @@ def main():
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--out")
     a = p.parse_args(argv)
+    configs = a.config if a.config else [""]
     imsynth = find_imsynth(a.imsynth)
     names = a.cases.split(",") if a.cases else sorted(
         os.path.basename(d) for d in glob.glob(os.path.join(CASES, "supershader_s*")))
@@ -102,36 +103,45 @@ def main():
                 with open(cyc_json) as f:
                     cyc_seconds = json.load(f)["seconds"]
                 cyc = compare(imsynth, cyc_exr, case, version)
-                ours_exr = os.path.join(work, "ours.exr")
-                ours_seconds = min(imsynth_render(imsynth, graph, version, ours_exr, extra)
-                                   for _ in range(a.repeat))
-                ours = compare(imsynth, ours_exr, case, version)
-                row = {"case": name, "blender": version, "cycles_samples": a.samples,
-                       "cycles_seconds": cyc_seconds, "cycles_rmse": cyc["rmse_converged"],
-                       "imsynth_seconds": ours_seconds, "imsynth_rmse": ours["rmse_converged"],
-                       "ref_mean": ours["ref_mean"], "ref_noise_rmse": ours["ref_noise_rmse"],
-                       "imsynth_options": " ".join(extra) or "defaults"}
-                rows.append(row)
-                print("%s %s: Cycles %.2f s rmse %.5f | imsynth %.3f s rmse %.5f" % (
-                    name, version, cyc_seconds, row["cycles_rmse"], ours_seconds,
-                    row["imsynth_rmse"]), file=sys.stderr, flush=True)
+                for config in configs:
+                    extra = config.split()
+                    ours_exr = os.path.join(work, "ours.exr")
+                    ours_seconds = min(imsynth_render(imsynth, graph, version, ours_exr, extra)
+                                       for _ in range(a.repeat))
+                    ours = compare(imsynth, ours_exr, case, version)
+                    row = {"case": name, "blender": version, "cycles_samples": a.samples,
+                           "cycles_seconds": cyc_seconds, "cycles_rmse": cyc["rmse_converged"],
+                           "imsynth_seconds": ours_seconds,
+                           "imsynth_rmse": ours["rmse_converged"], "ref_mean": ours["ref_mean"],
+                           "ref_noise_rmse": ours["ref_noise_rmse"],
+                           "imsynth_options": config or "defaults"}
+                    rows.append(row)
+                    print("%s %s [%s]: Cycles %.2f s rmse %.5f | imsynth %.3f s rmse %.5f" % (
+                        name, version, row["imsynth_options"], cyc_seconds, row["cycles_rmse"],
+                        ours_seconds, row["imsynth_rmse"]), file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    print("| case | Blender | Cycles-%d s/frame | imsynth s/frame | speed-up | Cycles-%d RMSE "
-          "| imsynth RMSE | imsynth / Cycles RMSE |" % (a.samples, a.samples))
-    print("|---|---|---|---|---|---|---|---|")
+    print("| case | Blender | imsynth options | Cycles-%d s/frame | imsynth s/frame | speed-up "
+          "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE |" % (a.samples, a.samples))
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %s | %.2f | %.3f | %.0fx | %.5f | %.5f | %.2f |" % (
-            r["case"], r["blender"], r["cycles_seconds"], r["imsynth_seconds"],
+        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f |" % (
+            r["case"], r["blender"], r["imsynth_options"], r["cycles_seconds"],
+            r["imsynth_seconds"],
             r["cycles_seconds"] / r["imsynth_seconds"], r["cycles_rmse"], r["imsynth_rmse"],
             r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan")))
-    if rows:
+    for config in configs:
+        sel = [r for r in rows if r["imsynth_options"] == (config or "defaults")]
+        if not sel:
+            continue
         geo = 1.0
-        for r in rows:
+        for r in sel:
             geo *= r["cycles_seconds"] / r["imsynth_seconds"]
-        print("\nGeometric-mean speed-up: %.0fx over %d frames; imsynth RMSE below Cycles' in "
-              "%d of %d." % (geo ** (1.0 / len(rows)), len(rows),
-                             sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in rows), len(rows)))
+        print("\nimsynth [%s]: geometric-mean speed-up %.1fx over %d frames; RMSE below "
+              "Cycles-%d's in %d of %d." % (config or "defaults", geo ** (1.0 / len(sel)),
+                                            len(sel), a.samples,
+                                            sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in sel),
+                                            len(sel)))
     if a.out:
         with open(a.out + ".tmp", "w") as f:
             json.dump(rows, f, indent=1)
