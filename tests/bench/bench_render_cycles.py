@@ -39,16 +39,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 CASES = os.path.join(REPO, "tests", "reference", "render")
 sys.path.insert(0, os.path.join(REPO, "blender"))
 from render_references import render_cycles  # noqa: E402
-
-
-def find_imsynth(given):
-    if given or os.environ.get("IMSYNTH"):
-        return given or os.environ["IMSYNTH"]
-    found = sorted(glob.glob(os.path.join(REPO, "build*", "cli", "imsynth")),
-                   key=os.path.getmtime, reverse=True)
-    if not found:
-        raise SystemExit("bench_render_cycles: no imsynth binary: pass --imsynth PATH")
-    return found[0]
+sys.path.insert(0, os.path.join(REPO, "tests"))
+from imsynth_binary import find_imsynth  # noqa: E402
 
 
 def compare(imsynth, image, case, version):
@@ -81,7 +73,7 @@ def main():
     p.add_argument("--out")
     a = p.parse_args(argv)
     configs = a.config if a.config else [""]
-    imsynth = find_imsynth(a.imsynth)
+    imsynth = find_imsynth(a.imsynth, "bench_render_cycles")
     names = a.cases.split(",") if a.cases else sorted(
         os.path.basename(d) for d in glob.glob(os.path.join(CASES, "supershader_s*")))
     rows = []

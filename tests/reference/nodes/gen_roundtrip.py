@@ -62,14 +62,15 @@ import glob
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(os.path.dirname(HERE)))
 from casekit import write_case  # noqa: E402
+from imsynth_binary import find_imsynth  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
 SUPERSHADER = os.path.join(REPO, "assets", "supershader.json")
@@ -110,22 +111,6 @@ class JsonGraph:
                 return n
         raise SystemExit("gen_roundtrip: %s: no node named %r in the material tree"
                          % (self.source, name))
-
-
-def find_imsynth(given):
-    if given:
-        return given
-    if os.environ.get("IMSYNTH"):
-        return os.environ["IMSYNTH"]
-    found = sorted(glob.glob(os.path.join(REPO, "build*", "cli", "imsynth")),
-                   key=os.path.getmtime, reverse=True)
-    if found:
-        return found[0]
-    on_path = shutil.which("imsynth")
-    if on_path:
-        return on_path
-    raise SystemExit("gen_roundtrip: no imsynth binary: pass --imsynth PATH or set IMSYNTH "
-                     "(looked in %s/build*/cli and on PATH)" % REPO)
 
 
 def export(imsynth, seed, full):
@@ -169,7 +154,7 @@ def main():
     ap.add_argument("--imsynth", help="the imsynth binary (default: see the module doc)")
     ap.add_argument("--seeds", default="0-9", help="frames to export (default 0-9)")
     a = ap.parse_args()
-    imsynth = find_imsynth(a.imsynth)
+    imsynth = find_imsynth(a.imsynth, "gen_roundtrip")
     for seed in parse_seeds(a.seeds):
         src = "%s --seed %d" % (os.path.relpath(SUPERSHADER, REPO), seed)
         write_map_cases("roundtrip_s%d_super" % seed,

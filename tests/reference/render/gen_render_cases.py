@@ -18,15 +18,17 @@ already proven equal to Blender's.
 The imsynth binary: --imsynth, else $IMSYNTH, else the newest build*/cli/imsynth.
 """
 import argparse
-import glob
 import json
 import os
 import subprocess
+import sys
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
 SUPERSHADER_SEEDS = range(6)
+sys.path.insert(0, os.path.join(REPO, "tests"))
+from imsynth_binary import find_imsynth  # noqa: E402
 
 
 def material(name, bsdf_inputs, extra_nodes=(), extra_links=()):
@@ -86,16 +88,6 @@ def cases():
     return c
 
 
-def find_imsynth(given):
-    if given or os.environ.get("IMSYNTH"):
-        return given or os.environ["IMSYNTH"]
-    found = sorted(glob.glob(os.path.join(REPO, "build*", "cli", "imsynth")),
-                   key=os.path.getmtime, reverse=True)
-    if not found:
-        raise SystemExit("gen_render_cases: no imsynth binary: pass --imsynth PATH or set IMSYNTH")
-    return found[0]
-
-
 def supershader_cases(imsynth):
     c = {}
     for seed in SUPERSHADER_SEEDS:
@@ -118,7 +110,7 @@ def main():
     ap.add_argument("--imsynth")
     a = ap.parse_args()
     all_cases = cases()
-    all_cases.update(supershader_cases(find_imsynth(a.imsynth)))
+    all_cases.update(supershader_cases(find_imsynth(a.imsynth, "gen_render_cases")))
     for name, g in all_cases.items():
         d = os.path.join(HERE, name)
         os.makedirs(d, exist_ok=True)
