@@ -60,6 +60,30 @@ float pixel_filter_eval(const pixel_filter *f, float x)
     return (float)(BH_A0 - BH_A1 * cos(v) + BH_A2 * cos(2.0 * v) - BH_A3 * cos(3.0 * v));
 }
 
+float pixel_filter_density(const pixel_filter *f, float x)
+{
+    /* The window's cosine terms integrate to 0 over the support, so its integral is
+     * a0 x the full width. cos 2v and cos 3v from cos v (Chebyshev): one cosine per call,
+     * as the fast mode's film calls this six times per shading point. */
+    float full = 2.0f * f->width;
+    if (fabsf(x) > 0.5f * full)
+        return 0.0f;
+    float c = cosf(2.0f * (float)M_PI * (x / full + 0.5f));
+    float c2 = 2.0f * c * c - 1.0f, c3 = (4.0f * c * c - 3.0f) * c;
+    float w = (float)BH_A0 - (float)BH_A1 * c + (float)BH_A2 * c2 - (float)BH_A3 * c3;
+    return w / ((float)BH_A0 * full);
+}
+
+double pixel_filter_cdf(const pixel_filter *f, double x)
+{
+    double full = 2.0 * (double)f->width;
+    if (x <= -0.5 * full)
+        return 0.0;
+    if (x >= 0.5 * full)
+        return 1.0;
+    return bh_integral(2.0 * M_PI * (x / full + 0.5)) / bh_integral(2.0 * M_PI);
+}
+
 void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], float D[3],
                       float *dP)
 {

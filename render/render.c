@@ -3,25 +3,23 @@
  * evaluated in batches, shading, and the film.
  *
  * Film: Cycles importance-samples its pixel filter, so a pixel is the plain mean of its
- * samples. A sample's random numbers depend only on (seed, pixel, sample, dimension) and
- * each pixel's samples are summed in sample order by one thread, so the image is the
- * same bits whatever the thread count.
- *
- * fast mode stratifies the filter positions of a pixel's spp shading points (a Latin
- * hypercube over the filter's two dimensions), which anti-aliases textures with few
- * shading points; reference mode draws them independently.
+ * samples; reference mode does the same. fast mode samples cells of the image plane
+ * uniformly and lets every shading point serve each pixel its filter reaches, weighted by
+ * the filter (see "The film's units" below). A sample's random numbers depend only on
+ * (seed, unit, sample, dimension) and each unit's sums are made in sample order by one
+ * thread, so the image is the same bits whatever the thread count.
  *
  * Adaptive sampling (fast mode, max_spp > spp). Where the material sparkles (a sharp bump
  * under a glossy highlight) a pixel's value depends on where in the 3 px filter its
  * shading points fall, and only more shading points there reduce that noise; elsewhere
  * spp is plenty. So the render has two phases: phase 1 renders spp shading points in
- * every pixel and records each pixel's sample variance; phase 2 gives a pixel k^2 more
- * shading points (a stratified set of its own) when its neighbours' variance says its
- * mean is noisier than noise_target. The decision for a pixel reads only its 8
+ * every cell and records each cell's sample variance; phase 2 gives a cell k^2 more
+ * shading points (a stratified set of its own) when its neighbours' variance says the
+ * pixels are noisier than noise_target. The decision for a cell reads only its 8
  * neighbours' phase-1 samples, never its own: its own samples are then independent of
- * how many it gets, and the pixel stays unbiased (a pixel deciding from its own samples
- * would keep the ones that happened to miss a rare highlight). The image is the mean of
- * all the pixel's shading points.
+ * how many it gets, and its mean is not biased by the choice (a cell deciding from its own
+ * samples would keep the ones that happened to miss a rare highlight). A cell's mean is
+ * then over all its shading points.
  */
 #include <pthread.h>
 #include <stdio.h>
@@ -100,7 +98,27 @@ void render_options_default(render_options *o)
 
 #define TILE 16
 #define BATCH 256
+#define MAX_SPLAT_RADIUS 3 /* cells: pixel filters up to 3.5 px in fast mode */
 
+/* The film's units. Reference mode: a unit is a pixel; its samples land where the
+ * filter's density puts them and each counts 1 in that pixel (Cycles' film).
+ *
+ * Fast mode: a unit is a cell (the square of a pixel) of the image plane extended by
+ * `radius` cells on every side, as far as the filter reaches. Its samples are stratified
+ * uniformly over the cell, and each one serves every pixel within the filter's reach, the
+ * (2 radius + 1)^2 "taps" around the cell, not just one: a pixel's value is
+ *     sum over cells c of  I_c x (sum_j W(x_j) L_j / sum_j W(x_j))
+ * where I_c is the exact integral of the filter's density over cell c (closed form), and
+ * the ratio is the density-weighted mean of the radiance of c's samples. So a pixel
+ * combines the ~9 cells' samples around it (a shading point does the work of ~3), the
+ * weights sum to exactly 1 whatever the samples (a plain splat of W / n has ~13% weight
+ * noise with 4 samples per cell), and a silhouette on a cell boundary - the plane's edge
+ * is the image's - costs no noise, as each cell's integrand is smooth. It converges to the
+ * filtered image as the samples per cell grow (the ratio's bias falls as 1/n).
+ *
+ * A unit keeps, per tap, the weighted sums of R, G, B and the sum of weights; then the
+ * plain sums of R, G, B (for a tap whose weights are all 0) and of the samples' channel
+ * means and their squares (adaptive sampling). */
 typedef struct render_job {
     const render_scene *scene;
     const render_material *material;
@@ -109,9 +127,16 @@ typedef struct render_job {
     pixel_filter filter;
     point_light light; /* the scene's light with this render's model */
     shade_setup setup;
-    int tiles_x, tiles_y;
-    float *film; /* width * height * 3 */
-    /* Adaptive sampling: phase 1's per-pixel sample variance and mean of the shading
+    int radius;           /* 0 (reference) or the filter's reach in cells (fast) */
+    int units_w, units_h; /* unit (ux, uy) is cell (ux - radius, uy - radius) */
+    int taps;             /* (2 radius + 1)^2 */
+    int tiles_x, tiles_y; /* tiles of TILE x TILE units */
+    float *sums;          /* units x UNIT_SUMS(taps): see film_add */
+    /* Fast mode: cell_weight[d + radius] = the 1D density's integral over the cell d
+     * cells from the pixel's; cell_w2 = the sum over taps of the squared 2D weights. */
+    double cell_weight[2 * MAX_SPLAT_RADIUS + 1];
+    float cell_w2;
+    /* Adaptive sampling: phase 1's per-unit sample variance and mean of the shading
      * points' channel mean, and the extra shading points phase 2 renders. */
     float *variance, *mean;
     uint32_t *extra;
@@ -125,17 +150,29 @@ typedef struct render_job {
 /* One thread's batch of shading points waiting for the evaluator. */
 typedef struct batch {
     int n;
-    uint32_t pixel[BATCH], sample[BATCH], first[BATCH], strata[BATCH];
+    uint32_t unit[BATCH], sample[BATCH], first[BATCH], strata[BATCH];
+    float rx[BATCH], ry[BATCH]; /* raster position */
     shading_geometry geo[BATCH];
     float storage[48 * BATCH]; /* planar geometry fields for sg_geometry_batch */
     float out_color[3 * BATCH], out_metallic[BATCH], out_roughness[BATCH], out_ior[BATCH],
         out_alpha[BATCH], out_normal[3 * BATCH], out_spec[BATCH], out_tint[3 * BATCH];
 } batch;
 
+/* Floats per unit: taps x (R, G, B, weight), then R, G, B; a tile's accumulators add the
+ * sum and the sum of squares of the samples' channel means. */
+#define UNIT_SUMS(taps) (4 * (taps) + 3)
+#define TILE_SUMS(taps) (UNIT_SUMS(taps) + 2)
+
+typedef struct tile_film {
+    int ux0, uy0, tw;
+    float *acc; /* tw x th x TILE_SUMS */
+} tile_film;
+
 typedef struct worker {
     render_job *job;
     sg_evaluator *eval;
     batch *b;
+    float *tile_acc; /* TILE x TILE x stride */
     shade_counters counters;
     uint64_t camera_rays, shading_points;
 } worker;
@@ -167,9 +204,47 @@ static void batch_geometry(batch *b, sg_geometry_batch *gb)
     gb->object_normal = field[ON];
 }
 
+/* Adds a sample of radiance L at raster (rx, ry), taken in `unit`, to the tile's film. */
+static void film_add(const render_job *job, tile_film *tf, uint32_t unit, float rx, float ry,
+                     const float L[3])
+{
+    int ux = (int)(unit % (uint32_t)job->units_w), uy = (int)(unit / (uint32_t)job->units_w);
+    float *a = tf->acc + (size_t)((uy - tf->uy0) * tf->tw + (ux - tf->ux0)) *
+                             (size_t)TILE_SUMS(job->taps);
+    int r = job->radius;
+    if (r == 0) {
+        for (int c = 0; c < 3; c++)
+            a[c] += L[c];
+        a[3] += 1.0f;
+    } else {
+        /* Tap (dx, dy) is pixel (cx + dx, cy + dy); the density is separable. */
+        float wx[2 * MAX_SPLAT_RADIUS + 1], wy[2 * MAX_SPLAT_RADIUS + 1];
+        int cx = ux - r, cy = uy - r;
+        for (int d = -r; d <= r; d++) {
+            wx[d + r] = pixel_filter_density(&job->filter, (float)(cx + d) + 0.5f - rx);
+            wy[d + r] = pixel_filter_density(&job->filter, (float)(cy + d) + 0.5f - ry);
+        }
+        int side = 2 * r + 1;
+        for (int j = 0; j < side; j++)
+            for (int i = 0; i < side; i++) {
+                float wgt = wx[i] * wy[j];
+                float *t = a + 4 * (j * side + i);
+                for (int c = 0; c < 3; c++)
+                    t[c] += wgt * L[c];
+                t[3] += wgt;
+            }
+    }
+    float *rest = a + 4 * job->taps;
+    for (int c = 0; c < 3; c++)
+        rest[c] += L[c];
+    float v = (L[0] + L[1] + L[2]) * (1.0f / 3.0f);
+    rest[3] += v;
+    rest[4] += v * v;
+}
+
 /* Evaluate the batch's maps, shade every point and add it to the tile's film. Points
- * arrive in (pixel, sample) order, so each pixel's sum has a fixed order. */
-static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int y0, int tw)
+ * arrive in (unit, sample) order, so each unit's sums have a fixed order. */
+static void batch_flush(worker *w, tile_film *tf)
 {
     batch *b = w->b;
     if (b->n == 0)
@@ -181,7 +256,6 @@ static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int
                              b->out_alpha, b->out_normal, b->out_spec, b->out_tint};
     sg_evaluate(w->eval, &gb, outs);
     int n = b->n;
-    int width = job->camera.width;
     for (int i = 0; i < n; i++) {
         principled_inputs in;
         principled_inputs_default(&in);
@@ -199,7 +273,7 @@ static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int
         if (v3_normalize(in.N) == 0.0f)
             memcpy(in.N, b->geo[i].N, sizeof in.N);
         float L[3];
-        shade_point(&job->setup, &b->geo[i], &in, b->pixel[i], b->sample[i], b->first[i],
+        shade_point(&job->setup, &b->geo[i], &in, b->unit[i], b->sample[i], b->first[i],
                     b->strata[i], L, &w->counters);
         /* Alpha: Cycles mixes in a transparent BSDF; the camera ray continues through
          * the surface. Behind the surface there is only the world in this scene (an
@@ -213,56 +287,55 @@ static void batch_flush(worker *w, float *tile_film, float *tile_sq, int x0, int
             for (int c = 0; c < 3; c++)
                 L[c] = alpha * L[c] + (1.0f - alpha) * job->scene->world[c];
         }
-        int px = (int)(b->pixel[i] % (uint32_t)width) - x0;
-        int py = (int)(b->pixel[i] / (uint32_t)width) - y0;
-        float *dst = &tile_film[3 * (py * tw + px)];
-        for (int c = 0; c < 3; c++)
-            dst[c] += L[c];
-        float v = (L[0] + L[1] + L[2]) * (1.0f / 3.0f);
-        tile_sq[py * tw + px] += v * v;
+        film_add(job, tf, b->unit[i], b->rx[i], b->ry[i], L);
     }
     w->shading_points += (uint64_t)n;
     b->n = 0;
 }
 
-/* Filter offset (in pixels, from the pixel centre) of shading point s of the set
- * first .. first + count - 1. fast mode stratifies the set, a jittered grid when count is
- * a square, else a Latin hypercube, and pairs its points antithetically: point k of the
- * second half is point count - 1 - k reflected through the pixel centre (u -> 1 - u in
- * each filter dimension, which the symmetric filter maps to -offset). Each point is still
- * uniform in filter space, so the estimate stays unbiased, and a pair's mean is exact for
- * anything linear across the filter: the light's fall-off across a 3 px footprint was most
- * of a smooth material's noise. On a square grid the reflected point lies in the
- * reflected cell, so the grid's stratification is kept. */
-static void filter_offset(const render_job *job, uint32_t pixel, int s, int first, int count,
-                          float *dx, float *dy)
+/* Raster position of sample s of the unit's set first .. first + count - 1.
+ * Reference mode: the pixel centre plus an independent draw from the filter's density.
+ * Fast mode: a point of the cell, the set stratified - a jittered grid when count is a
+ * square, else a Latin hypercube - and paired antithetically: point k of the second half
+ * is point count - 1 - k reflected through the cell's centre. Each point is still uniform
+ * over the cell, so every unit's sums stay unbiased, and a pair's mean is exact for
+ * anything linear across the cell. On a square grid the reflected point lies in the
+ * reflected stratum, so the grid's stratification is kept. */
+static void sample_position(const render_job *job, uint32_t unit, int s, int first, int count,
+                            float *rx, float *ry)
 {
     const render_options *o = job->opt;
+    int ux = (int)(unit % (uint32_t)job->units_w), uy = (int)(unit / (uint32_t)job->units_w);
+    if (o->mode != RENDER_FAST) {
+        float fu = render_random(o->seed, unit, (uint32_t)s, DIM_FILTER_X);
+        float fv = render_random(o->seed, unit, (uint32_t)s, DIM_FILTER_Y);
+        *rx = (float)ux + 0.5f + pixel_filter_sample(&job->filter, fu);
+        *ry = (float)uy + 0.5f + pixel_filter_sample(&job->filter, fv);
+        return;
+    }
     int k = s - first;
-    int mirrored = o->mode == RENDER_FAST && k > count - 1 - k;
+    int mirrored = k > count - 1 - k;
     if (mirrored)
         k = count - 1 - k;
     uint32_t sample = (uint32_t)(first + k);
-    float fu = render_random(o->seed, pixel, sample, DIM_FILTER_X);
-    float fv = render_random(o->seed, pixel, sample, DIM_FILTER_Y);
-    if (o->mode == RENDER_FAST) {
-        int m = (int)(sqrt((double)count) + 0.5);
-        if (m * m == count) {
-            fu = fminf(((float)(k % m) + fu) / (float)m, 0x1.fffffep-1f);
-            fv = fminf(((float)(k / m) + fv) / (float)m, 0x1.fffffep-1f);
-        } else {
-            uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + pixel + (uint64_t)first * 0x2545f491ull;
-            uint32_t sy = render_permute((uint32_t)k, (uint32_t)count, key);
-            fu = fminf(((float)k + fu) / (float)count, 0x1.fffffep-1f);
-            fv = fminf(((float)sy + fv) / (float)count, 0x1.fffffep-1f);
-        }
+    float fu = render_random(o->seed, unit, sample, DIM_FILTER_X);
+    float fv = render_random(o->seed, unit, sample, DIM_FILTER_Y);
+    int m = (int)(sqrt((double)count) + 0.5);
+    if (m * m == count) {
+        fu = fminf(((float)(k % m) + fu) / (float)m, 0x1.fffffep-1f);
+        fv = fminf(((float)(k / m) + fv) / (float)m, 0x1.fffffep-1f);
+    } else {
+        uint64_t key = o->seed * 0x9e3779b97f4a7c15ull + unit + (uint64_t)first * 0x2545f491ull;
+        uint32_t sy = render_permute((uint32_t)k, (uint32_t)count, key);
+        fu = fminf(((float)k + fu) / (float)count, 0x1.fffffep-1f);
+        fv = fminf(((float)sy + fv) / (float)count, 0x1.fffffep-1f);
     }
-    *dx = pixel_filter_sample(&job->filter, fu);
-    *dy = pixel_filter_sample(&job->filter, fv);
     if (mirrored) {
-        *dx = -*dx;
-        *dy = -*dy;
+        fu = 1.0f - fu;
+        fv = 1.0f - fv;
     }
+    *rx = (float)(ux - job->radius) + fu;
+    *ry = (float)(uy - job->radius) + fv;
 }
 
 static void render_tile(worker *w, int tile)
@@ -270,26 +343,26 @@ static void render_tile(worker *w, int tile)
     render_job *job = w->job;
     const render_options *o = job->opt;
     const ortho_camera *cam = &job->camera;
-    int x0 = (tile % job->tiles_x) * TILE, y0 = (tile / job->tiles_x) * TILE;
-    int tw = cam->width - x0 < TILE ? cam->width - x0 : TILE;
-    int th = cam->height - y0 < TILE ? cam->height - y0 : TILE;
-    float tile_film[3 * TILE * TILE], tile_sq[TILE * TILE];
-    memset(tile_film, 0, sizeof tile_film);
-    memset(tile_sq, 0, sizeof tile_sq);
+    tile_film tf;
+    tf.ux0 = (tile % job->tiles_x) * TILE;
+    tf.uy0 = (tile / job->tiles_x) * TILE;
+    tf.tw = job->units_w - tf.ux0 < TILE ? job->units_w - tf.ux0 : TILE;
+    tf.acc = w->tile_acc;
+    int th = job->units_h - tf.uy0 < TILE ? job->units_h - tf.uy0 : TILE;
+    const int stride = TILE_SUMS(job->taps), keep = UNIT_SUMS(job->taps);
+    memset(tf.acc, 0, sizeof(float) * (size_t)(TILE * TILE * stride));
     const int spp = o->spp;
-    for (int py = y0; py < y0 + th; py++)
-        for (int px = x0; px < x0 + tw; px++) {
-            uint32_t pixel = (uint32_t)(py * cam->width + px);
+    for (int uy = tf.uy0; uy < tf.uy0 + th; uy++)
+        for (int ux = tf.ux0; ux < tf.ux0 + tf.tw; ux++) {
+            uint32_t unit = (uint32_t)(uy * job->units_w + ux);
             int first = 0, count = spp;
             if (job->phase == 2) {
                 first = spp;
-                count = (int)job->extra[pixel];
+                count = (int)job->extra[unit];
             }
             for (int s = first; s < first + count; s++) {
-                float dx, dy;
-                filter_offset(job, pixel, s, first, count, &dx, &dy);
-                float rx = (float)px + 0.5f + dx;
-                float ry = (float)py + 0.5f + dy;
+                float rx, ry;
+                sample_position(job, unit, s, first, count, &rx, &ry);
                 float P[3], D[3], dP;
                 ortho_camera_ray(cam, rx, ry, P, D, &dP);
                 w->camera_rays++;
@@ -305,61 +378,91 @@ static void render_tile(worker *w, int tile)
                 rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
                 rtcIntersect1(job->scene->rtc, &ctx, &rh);
                 if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
-                    int t = (py - y0) * tw + (px - x0);
-                    const float *world = job->scene->world;
-                    for (int c = 0; c < 3; c++)
-                        tile_film[3 * t + c] += world[c];
-                    float v = (world[0] + world[1] + world[2]) * (1.0f / 3.0f);
-                    tile_sq[t] += v * v;
+                    film_add(job, &tf, unit, rx, ry, job->scene->world);
                     continue;
                 }
                 batch *b = w->b;
                 render_shading_geometry(job->scene, (int)rh.hit.geomID, rh.hit.primID, rh.hit.u,
                                         rh.hit.v, D, dP, &b->geo[b->n]);
-                b->pixel[b->n] = pixel;
+                b->unit[b->n] = unit;
                 b->sample[b->n] = (uint32_t)s;
                 b->first[b->n] = (uint32_t)first;
                 b->strata[b->n] = (uint32_t)count;
+                b->rx[b->n] = rx;
+                b->ry[b->n] = ry;
                 if (++b->n == BATCH)
-                    batch_flush(w, tile_film, tile_sq, x0, y0, tw);
+                    batch_flush(w, &tf);
             }
         }
-    batch_flush(w, tile_film, tile_sq, x0, y0, tw);
-    /* Tiles do not overlap: no lock needed to write the film. */
+    batch_flush(w, &tf);
+    /* Tiles do not overlap: no lock needed to write the units' sums. */
     for (int y = 0; y < th; y++)
-        for (int x = 0; x < tw; x++) {
-            size_t pixel = (size_t)(y0 + y) * (size_t)cam->width + (size_t)(x0 + x);
-            const float *sum = &tile_film[3 * (y * tw + x)];
-            float *dst = &job->film[3 * pixel];
+        for (int x = 0; x < tf.tw; x++) {
+            size_t unit = (size_t)(tf.uy0 + y) * (size_t)job->units_w + (size_t)(tf.ux0 + x);
+            const float *a = tf.acc + (size_t)(y * tf.tw + x) * (size_t)stride;
+            float *dst = &job->sums[(size_t)keep * unit];
             if (job->phase == 1) {
-                for (int c = 0; c < 3; c++)
-                    dst[c] = sum[c] / (float)spp;
+                memcpy(dst, a, sizeof(float) * (size_t)keep);
                 if (job->variance) {
-                    double sv = ((double)sum[0] + sum[1] + sum[2]) / 3.0;
-                    double mean = sv / spp;
-                    double var = spp > 1 ? (tile_sq[y * tw + x] - sv * mean) / (spp - 1) : 0.0;
-                    job->variance[pixel] = (float)(var > 0.0 ? var : 0.0);
-                    job->mean[pixel] = (float)mean;
+                    double sv = a[keep], mean = sv / spp;
+                    double var = spp > 1 ? (a[keep + 1] - sv * mean) / (spp - 1) : 0.0;
+                    job->variance[unit] = (float)(var > 0.0 ? var : 0.0);
+                    job->mean[unit] = (float)mean;
                 }
-            } else {
-                uint32_t extra = job->extra[pixel];
-                if (extra == 0)
-                    continue;
-                for (int c = 0; c < 3; c++)
-                    dst[c] = (dst[c] * (float)spp + sum[c]) / (float)(spp + (int)extra);
+            } else if (job->extra[unit] > 0) {
+                for (int k = 0; k < keep; k++)
+                    dst[k] += a[k];
             }
         }
 }
 
-/* Phase 2's plan: for each pixel, from its 8 neighbours' phase-1 statistics (never its
+/* The image from the units' sums (see the top of the tiles section). */
+static void film_resolve(const render_job *job, float *film)
+{
+    int r = job->radius, side = 2 * r + 1;
+    int width = job->camera.width, height = job->camera.height;
+    for (int py = 0; py < height; py++)
+        for (int px = 0; px < width; px++) {
+            float v[3] = {0, 0, 0};
+            for (int dy = -r; dy <= r; dy++)
+                for (int dx = -r; dx <= r; dx++) {
+                    /* The unit of cell (px - dx, py - dy) reaches this pixel by tap (dx, dy). */
+                    size_t unit = (size_t)(py - dy + r) * (size_t)job->units_w +
+                                  (size_t)(px - dx + r);
+                    const float *u = &job->sums[(size_t)UNIT_SUMS(job->taps) * unit];
+                    const float *t = u + 4 * ((dy + r) * side + (dx + r));
+                    if (r == 0) {
+                        for (int c = 0; c < 3; c++)
+                            v[c] = t[c] / t[3]; /* the samples' mean */
+                        continue;
+                    }
+                    /* The tap's weighted mean, or where every weight is 0 (points on the
+                     * edge of the support) the cell's plain mean. */
+                    float I = (float)(job->cell_weight[dx + r] * job->cell_weight[dy + r]);
+                    const float *mean = t[3] > 0.0f ? t : u + 4 * job->taps;
+                    float norm = t[3] > 0.0f ? t[3]
+                                             : (float)job->opt->spp +
+                                                   (float)(job->extra ? job->extra[unit] : 0);
+                    for (int c = 0; c < 3; c++)
+                        v[c] += I * (mean[c] / norm);
+                }
+            memcpy(&film[3 * ((size_t)py * (size_t)width + (size_t)px)], v, sizeof v);
+        }
+}
+
+/* Phase 2's plan: for each unit, from its 8 neighbours' phase-1 statistics (never its
  * own: see the top of the file), the number of extra shading points that brings the
- * standard error of its mean to noise_target x the neighbours' mean (at least 0.01: dark
- * pixels need no relative precision), as a square k^2 (a stratified set), with
- * spp + k^2 <= max_spp. Returns the total number of extra shading points. */
+ * standard error its samples give a pixel to noise_target x the neighbours' mean (at
+ * least 0.01: dark pixels need no relative precision), as a square k^2 (a stratified
+ * set), with spp + k^2 <= max_spp. A pixel is a weighted sum of the means of the ~9
+ * cells around it, so n samples of variance v in each give it a variance of about v / n
+ * times the sum of the squared weights (cell_w2, 0.29 for 1.5 px Blackman-Harris): it
+ * needs that fraction of the samples an importance-sampled pixel would.
+ * Returns the total number of extra shading points. */
 static uint64_t plan_extra_samples(render_job *job)
 {
     const render_options *o = job->opt;
-    int w = job->camera.width, h = job->camera.height;
+    int w = job->units_w, h = job->units_h;
     int kmax = (int)sqrt((double)(o->max_spp - o->spp));
     uint64_t total = 0;
     for (int y = 0; y < h; y++)
@@ -379,7 +482,8 @@ static uint64_t plan_extra_samples(render_job *job)
                 }
             mean = n > 0 ? mean / n : 0.0;
             double eps = o->noise_target * (mean > 0.01 ? mean : 0.01);
-            double need = var / (eps * eps) - o->spp; /* shading points beyond phase 1 */
+            /* shading points beyond phase 1 */
+            double need = job->cell_w2 * var / (eps * eps) - o->spp;
             int k = 0;
             if (need > 0.0) {
                 k = (int)ceil(sqrt(need));
@@ -472,30 +576,57 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         job->setup.light = &job->light;
     }
     int width = job->camera.width, height = job->camera.height;
-    job->tiles_x = (width + TILE - 1) / TILE;
-    job->tiles_y = (height + TILE - 1) / TILE;
+    if (o->mode == RENDER_FAST) {
+        /* A cell's points reach the pixels whose centres lie within the filter's
+         * half-width (its support is +-filter_width px). */
+        job->radius = (int)ceilf(s->filter_width - 0.5f);
+        if (job->radius < 1)
+            job->radius = 1;
+        if (job->radius > MAX_SPLAT_RADIUS) {
+            free(job);
+            snprintf(err, errlen,
+                     "fast mode handles pixel filters up to %.1f px (the scene's is %g px); "
+                     "use reference mode", MAX_SPLAT_RADIUS + 0.5, (double)s->filter_width);
+            return -1;
+        }
+        double w2 = 0.0;
+        for (int d = -job->radius; d <= job->radius; d++) {
+            double I = pixel_filter_cdf(&job->filter, d + 0.5) -
+                       pixel_filter_cdf(&job->filter, d - 0.5);
+            job->cell_weight[d + job->radius] = I;
+            w2 += I * I;
+        }
+        job->cell_w2 = (float)(w2 * w2);
+    }
+    int side = 2 * job->radius + 1;
+    job->taps = side * side;
+    job->units_w = width + 2 * job->radius;
+    job->units_h = height + 2 * job->radius;
+    job->tiles_x = (job->units_w + TILE - 1) / TILE;
+    job->tiles_y = (job->units_h + TILE - 1) / TILE;
     if (image_alloc(out, width, height, 3) < 0) {
         free(job);
         snprintf(err, errlen, "out of memory for a %dx%d image", width, height);
         return -1;
     }
-    job->film = out->pixels;
     /* Adaptive sampling needs room for at least one extra 1x1 set. */
     int adaptive = o->mode == RENDER_FAST && o->max_spp > o->spp;
-    size_t npix = (size_t)width * (size_t)height;
+    size_t nunits = (size_t)job->units_w * (size_t)job->units_h;
+    job->sums = malloc(nunits * (size_t)UNIT_SUMS(job->taps) * sizeof *job->sums);
     if (adaptive) {
-        job->variance = malloc(npix * sizeof *job->variance);
-        job->mean = malloc(npix * sizeof *job->mean);
-        job->extra = malloc(npix * sizeof *job->extra);
-        if (!job->variance || !job->mean || !job->extra) {
-            free(job->variance);
-            free(job->mean);
-            free(job->extra);
-            free(job);
-            image_free(out);
-            snprintf(err, errlen, "out of memory for a %dx%d image", width, height);
-            return -1;
-        }
+        job->variance = malloc(nunits * sizeof *job->variance);
+        job->mean = malloc(nunits * sizeof *job->mean);
+        job->extra = malloc(nunits * sizeof *job->extra);
+    }
+    if (!job->sums || (adaptive && (!job->variance || !job->mean || !job->extra))) {
+        free(job->sums);
+        free(job->variance);
+        free(job->mean);
+        free(job->extra);
+        free(job);
+        image_free(out);
+        snprintf(err, errlen, "out of memory for a %dx%d image", width, height);
+        return -1;
     }
     pthread_mutex_init(&job->lock, NULL);
 
@@ -513,7 +644,8 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         workers[i].job = job;
         workers[i].eval = sg_evaluator_new(m->program, BATCH);
         workers[i].b = malloc(sizeof(batch));
-        if (!workers[i].eval || !workers[i].b)
+        workers[i].tile_acc = malloc(sizeof(float) * TILE * TILE * (size_t)TILE_SUMS(job->taps));
+        if (!workers[i].eval || !workers[i].b || !workers[i].tile_acc)
             ok = 0;
         else
             workers[i].b->n = 0;
@@ -540,10 +672,14 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         if (workers[i].eval)
             sg_evaluator_free(workers[i].eval);
         free(workers[i].b);
+        free(workers[i].tile_acc);
     }
+    if (ok)
+        film_resolve(job, out->pixels);
     free(workers);
     free(tids);
     pthread_mutex_destroy(&job->lock);
+    free(job->sums);
     free(job->variance);
     free(job->mean);
     free(job->extra);
