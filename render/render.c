@@ -15,8 +15,8 @@
  * spp is plenty. So the render has two phases: phase 1 renders spp shading points in
  * every cell and records each cell's sample variance; phase 2 gives a cell k^2 more
  * shading points (a stratified set of its own) when its neighbours' variance says the
- * pixels are noisier than noise_target. The decision for a cell reads only its 8
- * neighbours' phase-1 samples, never its own: its own samples are then independent of
+ * pixels are noisier than noise_target. The decision for a cell reads only its
+ * neighbours' phase-1 samples (5 x 5 cells), never its own: its own samples are then independent of
  * how many it gets, and its mean is not biased by the choice (a cell deciding from its own
  * samples would keep the ones that happened to miss a rare highlight). A cell's mean is
  * then over all its shading points.
@@ -91,7 +91,7 @@ void render_options_default(render_options *o)
     o->threads = 0;
     o->seed = 0;
     o->max_spp = 256;
-    o->noise_target = 0.05f;
+    o->noise_target = 0.03f;
 }
 
 /* ---- tiles ------------------------------------------------------------------------ */
@@ -450,27 +450,44 @@ static void film_resolve(const render_job *job, float *film)
         }
 }
 
-/* Phase 2's plan: for each unit, from its 8 neighbours' phase-1 statistics (never its
- * own: see the top of the file), the number of extra shading points that brings the
- * standard error its samples give a pixel to noise_target x the neighbours' mean (at
- * least 0.01: dark pixels need no relative precision), as a square k^2 (a stratified
- * set), with spp + k^2 <= max_spp. A pixel is a weighted sum of the means of the ~9
- * cells around it, so n samples of variance v in each give it a variance of about v / n
- * times the sum of the squared weights (cell_w2, 0.29 for 1.5 px Blackman-Harris): it
- * needs that fraction of the samples an importance-sampled pixel would.
+/* Phase 2's plan: for each unit, from the phase-1 statistics of the 24 others in the 5 x 5
+ * cells around it (never its own: see the top of the file), the number of extra shading points that brings the
+ * standard error its samples give a pixel to noise_target x sqrt(the neighbours' mean
+ * (at least 0.01) x the image's mean), as a square k^2 (a stratified set), with
+ * spp + k^2 <= max_spp.
+ * Why that scale: relative to the local mean alone, dark regions of a dark image were
+ * sampled far beyond what the image's RMSE needed, and smooth frames stayed noisier than
+ * Cycles-252 while costing more; relative to the image's mean alone, glints in dark
+ * regions were left heavy-tailed and 16x16 blocks 15-20% off. The geometric mean of the
+ * two was the most RMSE-efficient on the six super-shader frames (render/NOTES.md).
+ * Why 5 x 5: glints are small; with 3 x 3 a cell whose neighbours' few samples missed a
+ * glint region kept 4 samples, and a rare hit on the light's reflection (radiance ~20)
+ * then put whole 16x16 blocks 15-25% off. 5 x 5 sees the region sooner: lower RMSE on
+ * all six frames at 1.1-1.7x the time (the larger cost is in sparkling frames).
+ * A pixel is a weighted sum of the means of the ~9 cells around it, so n samples of
+ * variance v in each give it a variance of about v / n times the sum of the squared
+ * weights (cell_w2, 0.29 for 1.5 px Blackman-Harris): it needs that fraction of the
+ * samples an importance-sampled pixel would.
  * Returns the total number of extra shading points. */
+#define NEIGHBOURHOOD 2 /* cells on each side */
 static uint64_t plan_extra_samples(render_job *job)
 {
     const render_options *o = job->opt;
     int w = job->units_w, h = job->units_h;
     int kmax = (int)sqrt((double)(o->max_spp - o->spp));
     uint64_t total = 0;
+    int r = job->radius, width = job->camera.width, height = job->camera.height;
+    double image_mean = 0.0;
+    for (int y = r; y < r + height; y++)
+        for (int x = r; x < r + width; x++)
+            image_mean += job->mean[(size_t)y * (size_t)w + (size_t)x];
+    image_mean /= (double)width * height;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             double var = 0.0, mean = 0.0;
             int n = 0;
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
+            for (int dy = -NEIGHBOURHOOD; dy <= NEIGHBOURHOOD; dy++)
+                for (int dx = -NEIGHBOURHOOD; dx <= NEIGHBOURHOOD; dx++) {
                     int nx = x + dx, ny = y + dy;
                     if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h)
                         continue;
@@ -481,7 +498,7 @@ static uint64_t plan_extra_samples(render_job *job)
                     n++;
                 }
             mean = n > 0 ? mean / n : 0.0;
-            double eps = o->noise_target * (mean > 0.01 ? mean : 0.01);
+            double eps = o->noise_target * sqrt((mean > 0.01 ? mean : 0.01) * image_mean);
             /* shading points beyond phase 1 */
             double need = job->cell_w2 * var / (eps * eps) - o->spp;
             int k = 0;

@@ -53,9 +53,10 @@ typedef struct render_options {
     int threads;       /* 0 = all cores */
     uint64_t seed;
     int width, height; /* 0 = the scene's resolution */
-    /* fast mode, adaptive sampling (render.c): pixels whose neighbours are noisy get up to
-     * max_spp shading points in all (0 or <= spp: off), aiming at a standard error of
-     * noise_target x the local mean. Defaults: spp 4, max_spp 256, noise_target 0.05. */
+    /* fast mode, adaptive sampling (render.c): cells whose neighbours are noisy get up to
+     * max_spp shading points in all (0 or <= spp: off), aiming at a pixel standard error
+     * of noise_target x sqrt(local mean x image mean). Defaults: spp 4, max_spp 256,
+     * noise_target 0.03. */
     int max_spp;
     float noise_target;
 } render_options;
