@@ -36,6 +36,21 @@ static render_scene *load_scene(void)
     return s;
 }
 
+/* The scene file's text with `from` replaced by `to` (same length), or fail. */
+static size_t edited_scene(char *text, size_t cap, const char *from, const char *to)
+{
+    FILE *f = fopen(IMSYNTH_SOURCE_DIR "/assets/scene.json", "rb");
+    assert_non_null(f);
+    size_t len = fread(text, 1, cap - 1, f);
+    fclose(f);
+    text[len] = 0;
+    char *at = strstr(text, from);
+    assert_non_null(at);
+    assert_int_equal(strlen(from), strlen(to));
+    memcpy(at, to, strlen(to));
+    return len;
+}
+
 static void test_camera_hits_pixel_centres(void **state)
 {
     (void)state;
@@ -277,15 +292,8 @@ static void test_scene_errors(void **state)
         assert_non_null(strstr(err, bad[i][1]));
     }
     /* A bad face index deep inside is named by its path. */
-    FILE *f = fopen(IMSYNTH_SOURCE_DIR "/assets/scene.json", "rb");
-    assert_non_null(f);
     char text[4096];
-    size_t len = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[len] = 0;
-    char *at = strstr(text, "[[0, 1, 2, 3]]");
-    assert_non_null(at);
-    memcpy(at, "[[0, 1, 2, 9]]", 14);
+    size_t len = edited_scene(text, sizeof text, "[[0, 1, 2, 3]]", "[[0, 1, 2, 9]]");
     render_scene *s = render_scene_load_json(text, len, "scene.json", err, sizeof err);
     assert_null(s);
     assert_non_null(strstr(err, "objects[0].faces[0][3]"));
@@ -363,18 +371,9 @@ static void test_threads_do_not_change_bits(void **state)
 static void test_fast_film_weights(void **state)
 {
     (void)state;
-    FILE *f = fopen(IMSYNTH_SOURCE_DIR "/assets/scene.json", "rb");
-    assert_non_null(f);
     char text[4096];
-    size_t len = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[len] = 0;
-    const char *plane = "[[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]";
-    const char *away = "[[5, 5, 0], [7, 5, 0], [7, 7, 0], [5, 7, 0]]    ";
-    char *at = strstr(text, plane);
-    assert_non_null(at);
-    assert_int_equal(strlen(plane), strlen(away));
-    memcpy(at, away, strlen(away));
+    size_t len = edited_scene(text, sizeof text, "[[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]",
+                              "[[5, 5, 0], [7, 5, 0], [7, 7, 0], [5, 7, 0]]    ");
     char err[512];
     render_scene *s = render_scene_load_json(text, len, "empty.json", err, sizeof err);
     if (!s)
