@@ -21,6 +21,10 @@ Per case and Blender version:
   RMSE     `imsynth compare IMAGE REF_A REF_B --json`: rmse_converged, the RMSE against the
            4096-sample reference with the reference's own noise taken out (both images are
            independent of the reference's samples).
+  equal-RMSE speed-up  (Cycles seconds x Cycles RMSE^2) / (imsynth seconds x imsynth
+           RMSE^2): how much faster imsynth would be at Cycles' RMSE if both errors fell as
+           1 / sqrt(time), as Monte Carlo errors do; compares configurations that land at
+           different RMSEs.
 Prints a Markdown table (for BENCHMARKS.md) and, with --out, writes the numbers as JSON.
 Plain python3; Blender 3.4 on PATH and 4.3 in /srv/trixie (scripts/setup-oracles). Run
 it on an otherwise idle machine: both renderers use all cores.
@@ -113,27 +117,34 @@ def main():
                         ours_seconds, row["imsynth_rmse"]), file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
+    def equal_rmse(r):
+        ours = r["imsynth_seconds"] * r["imsynth_rmse"] ** 2
+        return r["cycles_seconds"] * r["cycles_rmse"] ** 2 / ours if ours > 0 else float("nan")
+
     print("| case | Blender | imsynth options | Cycles-%d s/frame | imsynth s/frame | speed-up "
-          "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE |" % (a.samples, a.samples))
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE | equal-RMSE speed-up |"
+          % (a.samples, a.samples))
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f |" % (
+        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f | %.1fx |" % (
             r["case"], r["blender"], r["imsynth_options"], r["cycles_seconds"],
             r["imsynth_seconds"],
             r["cycles_seconds"] / r["imsynth_seconds"], r["cycles_rmse"], r["imsynth_rmse"],
-            r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan")))
+            r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan"),
+            equal_rmse(r)))
     for config in configs:
         sel = [r for r in rows if r["imsynth_options"] == (config or "defaults")]
         if not sel:
             continue
-        geo = 1.0
+        geo = geo_equal = 1.0
         for r in sel:
             geo *= r["cycles_seconds"] / r["imsynth_seconds"]
+            geo_equal *= equal_rmse(r)
         print("\nimsynth [%s]: geometric-mean speed-up %.1fx over %d frames; RMSE below "
-              "Cycles-%d's in %d of %d." % (config or "defaults", geo ** (1.0 / len(sel)),
-                                            len(sel), a.samples,
-                                            sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in sel),
-                                            len(sel)))
+              "Cycles-%d's in %d of %d; equal-RMSE speed-up %.1fx (geometric mean)." % (
+                  config or "defaults", geo ** (1.0 / len(sel)), len(sel), a.samples,
+                  sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in sel), len(sel),
+                  geo_equal ** (1.0 / len(sel))))
     if a.out:
         with open(a.out + ".tmp", "w") as f:
             json.dump(rows, f, indent=1)
