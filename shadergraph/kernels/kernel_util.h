@@ -54,27 +54,31 @@ static inline uint32_t float_bits(float f)
 
 /* ---- Jenkins lookup3 ------------------------------------------------------------- */
 
-static inline uint32_t hash_rot(uint32_t x, int k) { return (x << k) | (x >> (32 - k)); }
+/* lookup3's rotate, mix and final as macros, so that one definition serves uint32_t and
+ * GCC/Clang vectors of uint32_t alike (the operators are the same): the scalar hashes
+ * below and the 8-lane ones of noise.c and voronoi.c. Arguments are plain variables;
+ * they are evaluated more than once. */
+#define HASH_ROT(x, k) (((x) << (k)) | ((x) >> (32 - (k))))
 
 #define HASH_MIX(a, b, c)                                                                  \
     do {                                                                                   \
-        a -= c; a ^= hash_rot(c, 4);  c += b;                                               \
-        b -= a; b ^= hash_rot(a, 6);  a += c;                                               \
-        c -= b; c ^= hash_rot(b, 8);  b += a;                                               \
-        a -= c; a ^= hash_rot(c, 16); c += b;                                               \
-        b -= a; b ^= hash_rot(a, 19); a += c;                                               \
-        c -= b; c ^= hash_rot(b, 4);  b += a;                                               \
+        a -= c; a ^= HASH_ROT(c, 4);  c += b;                                               \
+        b -= a; b ^= HASH_ROT(a, 6);  a += c;                                               \
+        c -= b; c ^= HASH_ROT(b, 8);  b += a;                                               \
+        a -= c; a ^= HASH_ROT(c, 16); c += b;                                               \
+        b -= a; b ^= HASH_ROT(a, 19); a += c;                                               \
+        c -= b; c ^= HASH_ROT(b, 4);  b += a;                                               \
     } while (0)
 
 #define HASH_FINAL(a, b, c)                                                                \
     do {                                                                                   \
-        c ^= b; c -= hash_rot(b, 14);                                                       \
-        a ^= c; a -= hash_rot(c, 11);                                                       \
-        b ^= a; b -= hash_rot(a, 25);                                                       \
-        c ^= b; c -= hash_rot(b, 16);                                                       \
-        a ^= c; a -= hash_rot(c, 4);                                                        \
-        b ^= a; b -= hash_rot(a, 14);                                                       \
-        c ^= b; c -= hash_rot(b, 24);                                                       \
+        c ^= b; c -= HASH_ROT(b, 14);                                                       \
+        a ^= c; a -= HASH_ROT(c, 11);                                                       \
+        b ^= a; b -= HASH_ROT(a, 25);                                                       \
+        c ^= b; c -= HASH_ROT(b, 16);                                                       \
+        a ^= c; a -= HASH_ROT(c, 4);                                                        \
+        b ^= a; b -= HASH_ROT(a, 14);                                                       \
+        c ^= b; c -= HASH_ROT(b, 24);                                                       \
     } while (0)
 
 static inline uint32_t hash_uint(uint32_t kx)

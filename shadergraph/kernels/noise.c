@@ -180,8 +180,6 @@ NOISE_INLINE float perlin_2d(float x, float y, bool b3)
 typedef uint32_t u32x8 __attribute__((vector_size(32)));
 typedef float f32x8 __attribute__((vector_size(32)));
 
-NOISE_INLINE u32x8 rot8(u32x8 x, int k) { return (x << k) | (x >> (32 - k)); }
-
 NOISE_INLINE u32x8 hash_uint3_x8(u32x8 kx, u32x8 ky, u32x8 kz)
 {
     u32x8 a, b, c;
@@ -189,13 +187,7 @@ NOISE_INLINE u32x8 hash_uint3_x8(u32x8 kx, u32x8 ky, u32x8 kz)
     c += kz;
     b += ky;
     a += kx;
-    c ^= b; c -= rot8(b, 14);
-    a ^= c; a -= rot8(c, 11);
-    b ^= a; b -= rot8(a, 25);
-    c ^= b; c -= rot8(b, 16);
-    a ^= c; a -= rot8(c, 4);
-    b ^= a; b -= rot8(a, 14);
-    c ^= b; c -= rot8(b, 24);
+    HASH_FINAL(a, b, c);
     return c;
 }
 
@@ -222,20 +214,9 @@ NOISE_INLINE u32x8 hash_uint4_x8(u32x8 kx, u32x8 ky, u32x8 kz, u32x8 kw)
     a += kx;
     b += ky;
     c += kz;
-    a -= c; a ^= rot8(c, 4);  c += b;
-    b -= a; b ^= rot8(a, 6);  a += c;
-    c -= b; c ^= rot8(b, 8);  b += a;
-    a -= c; a ^= rot8(c, 16); c += b;
-    b -= a; b ^= rot8(a, 19); a += c;
-    c -= b; c ^= rot8(b, 4);  b += a;
+    HASH_MIX(a, b, c);
     a += kw;
-    c ^= b; c -= rot8(b, 14);
-    a ^= c; a -= rot8(c, 11);
-    b ^= a; b -= rot8(a, 25);
-    c ^= b; c -= rot8(b, 16);
-    a ^= c; a -= rot8(c, 4);
-    b ^= a; b -= rot8(a, 14);
-    c ^= b; c -= rot8(b, 24);
+    HASH_FINAL(a, b, c);
     return c;
 }
 

@@ -289,24 +289,13 @@ typedef float f32x8 __attribute__((vector_size(32)));
 /* Statement macros rather than functions: a function passing 32-byte vectors by value has
  * no fixed ABI without AVX, which GCC points out; macros keep the code the same on every
  * target. `out` receives the [0, 1] float of each lane's hash. */
-#define ROT_X8(x, k) (((x) << (k)) | ((x) >> (32 - (k))))
-#define FINAL_X8(a, b, c)                                                                 \
-    do {                                                                                  \
-        c ^= b; c -= ROT_X8(b, 14);                                                        \
-        a ^= c; a -= ROT_X8(c, 11);                                                        \
-        b ^= a; b -= ROT_X8(a, 25);                                                        \
-        c ^= b; c -= ROT_X8(b, 16);                                                        \
-        a ^= c; a -= ROT_X8(c, 4);                                                         \
-        b ^= a; b -= ROT_X8(a, 14);                                                        \
-        c ^= b; c -= ROT_X8(b, 24);                                                        \
-    } while (0)
 #define UNIT_X8(c) (__builtin_convertvector((c), f32x8) * (1.0f / (float)0xFFFFFFFFu))
 #define HASH_INIT_X8(words) ((u32x8){0} + (0xdeadbeefu + ((words) << 2) + 13u))
 #define HASH1_X8(out, kx)                                                                 \
     do {                                                                                  \
         u32x8 a_ = HASH_INIT_X8(1u), b_ = a_, c_ = a_;                                    \
         a_ += (kx);                                                                       \
-        FINAL_X8(a_, b_, c_);                                                             \
+        HASH_FINAL(a_, b_, c_);                                                             \
         (out) = UNIT_X8(c_);                                                              \
     } while (0)
 #define HASH2_X8(out, kx, ky)                                                             \
@@ -314,7 +303,7 @@ typedef float f32x8 __attribute__((vector_size(32)));
         u32x8 a_ = HASH_INIT_X8(2u), b_ = a_, c_ = a_;                                    \
         b_ += (ky);                                                                       \
         a_ += (kx);                                                                       \
-        FINAL_X8(a_, b_, c_);                                                             \
+        HASH_FINAL(a_, b_, c_);                                                             \
         (out) = UNIT_X8(c_);                                                              \
     } while (0)
 #define HASH3_X8(out, kx, ky, kz)                                                         \
@@ -323,7 +312,7 @@ typedef float f32x8 __attribute__((vector_size(32)));
         c_ += (kz);                                                                       \
         b_ += (ky);                                                                       \
         a_ += (kx);                                                                       \
-        FINAL_X8(a_, b_, c_);                                                             \
+        HASH_FINAL(a_, b_, c_);                                                             \
         (out) = UNIT_X8(c_);                                                              \
     } while (0)
 #define HASH4_X8(out, kx, ky, kz, kw)                                                     \
@@ -332,14 +321,9 @@ typedef float f32x8 __attribute__((vector_size(32)));
         a_ += (kx);                                                                       \
         b_ += (ky);                                                                       \
         c_ += (kz);                                                                       \
-        a_ -= c_; a_ ^= ROT_X8(c_, 4);  c_ += b_;                                          \
-        b_ -= a_; b_ ^= ROT_X8(a_, 6);  a_ += c_;                                          \
-        c_ -= b_; c_ ^= ROT_X8(b_, 8);  b_ += a_;                                          \
-        a_ -= c_; a_ ^= ROT_X8(c_, 16); c_ += b_;                                          \
-        b_ -= a_; b_ ^= ROT_X8(a_, 19); a_ += c_;                                          \
-        c_ -= b_; c_ ^= ROT_X8(b_, 4);  b_ += a_;                                          \
+        HASH_MIX(a_, b_, c_);                                                             \
         a_ += (kw);                                                                       \
-        FINAL_X8(a_, b_, c_);                                                             \
+        HASH_FINAL(a_, b_, c_);                                                             \
         (out) = UNIT_X8(c_);                                                              \
     } while (0)
 
@@ -1024,19 +1008,6 @@ static inline lane_f lane_sqrt(lane_f x)
 }
 
 /* kernel_util.h's lookup3 hashes per lane, mapped to [0, 1] as uint_to_unit_float. */
-static inline lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
-
-#define LANE_FINAL(a, b, c)                                                                \
-    do {                                                                                   \
-        c ^= b; c -= lane_rot(b, 14);                                                       \
-        a ^= c; a -= lane_rot(c, 11);                                                       \
-        b ^= a; b -= lane_rot(a, 25);                                                       \
-        c ^= b; c -= lane_rot(b, 16);                                                       \
-        a ^= c; a -= lane_rot(c, 4);                                                        \
-        b ^= a; b -= lane_rot(a, 14);                                                       \
-        c ^= b; c -= lane_rot(b, 24);                                                       \
-    } while (0)
-
 static inline lane_u lane_hash_init(uint32_t words)
 {
     return (lane_u){0} + (0xdeadbeefu + (words << 2) + 13u);
@@ -1051,7 +1022,7 @@ static inline lane_f lane_hash1(lane_u kx)
 {
     lane_u a = lane_hash_init(1u), b = a, c = a;
     a += kx;
-    LANE_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return lane_unit(c);
 }
 
@@ -1060,7 +1031,7 @@ static inline lane_f lane_hash2(lane_u kx, lane_u ky)
     lane_u a = lane_hash_init(2u), b = a, c = a;
     b += ky;
     a += kx;
-    LANE_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return lane_unit(c);
 }
 
@@ -1070,7 +1041,7 @@ static inline lane_f lane_hash3(lane_u kx, lane_u ky, lane_u kz)
     c += kz;
     b += ky;
     a += kx;
-    LANE_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return lane_unit(c);
 }
 
@@ -1080,14 +1051,9 @@ static inline lane_f lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
     a += kx;
     b += ky;
     c += kz;
-    a -= c; a ^= lane_rot(c, 4);  c += b;
-    b -= a; b ^= lane_rot(a, 6);  a += c;
-    c -= b; c ^= lane_rot(b, 8);  b += a;
-    a -= c; a ^= lane_rot(c, 16); c += b;
-    b -= a; b ^= lane_rot(a, 19); a += c;
-    c -= b; c ^= lane_rot(b, 4);  b += a;
+    HASH_MIX(a, b, c);
     a += kw;
-    LANE_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return lane_unit(c);
 }
 
