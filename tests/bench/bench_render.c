@@ -43,13 +43,15 @@ static double cpu_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* CPU seconds of the whole process during the last render_once (all threads): on a
- * shared, loaded machine this is steadier than wall time. */
-static double last_cpu;
-static uint64_t last_points;
+/* What one render cost: wall seconds, CPU seconds of the whole process (all threads: on
+ * a shared, loaded machine steadier than wall time) and shading points. */
+typedef struct cost {
+    double wall, cpu;
+    uint64_t points;
+} cost;
 
-static double render_once(const render_scene *s, const render_material *m,
-                          const render_options *o, image *out)
+static cost render_once(const render_scene *s, const render_material *m,
+                        const render_options *o, image *out)
 {
     char err[1024];
     render_stats st;
@@ -58,9 +60,8 @@ static double render_once(const render_scene *s, const render_material *m,
         fprintf(stderr, "bench_render: %s\n", err);
         exit(1);
     }
-    last_cpu = cpu_seconds() - c0;
-    last_points = st.shading_points;
-    return st.seconds;
+    cost c = {st.seconds, cpu_seconds() - c0, st.shading_points};
+    return c;
 }
 
 int main(int argc, char **argv)
@@ -117,7 +118,7 @@ int main(int argc, char **argv)
         if (!m)
             continue;
         image img;
-        double sec = render_once(s, m, &o, &img);
+        cost run = render_once(s, m, &o, &img);
         image a, b;
         if (access(pa, R_OK) == 0 && access(pb, R_OK) == 0 &&
             image_read(pa, &a, err, sizeof err) == 0 && image_read(pb, &b, err, sizeof err) == 0) {
@@ -131,13 +132,13 @@ int main(int argc, char **argv)
                     sn += 0.25 * (ra - rb) * (ra - rb);
                 }
             double mse = se / (3.0 * n), noise = sn / (3.0 * n);
-            printf("| %s | %.3f | %.3f | %.1f | %.5f | %.5f |\n", names[i], sec, last_cpu,
-                   (double)last_points / n, sqrt(mse > noise ? mse - noise : 0.0), sqrt(noise));
+            printf("| %s | %.3f | %.3f | %.1f | %.5f | %.5f |\n", names[i], run.wall, run.cpu,
+                   (double)run.points / n, sqrt(mse > noise ? mse - noise : 0.0), sqrt(noise));
             image_free(&a);
             image_free(&b);
         } else {
-            printf("| %s | %.3f | %.3f | %.1f | (no reference) | |\n", names[i], sec, last_cpu,
-                   (double)last_points / (img.width * img.height));
+            printf("| %s | %.3f | %.3f | %.1f | (no reference) | |\n", names[i], run.wall, run.cpu,
+                   (double)run.points / (img.width * img.height));
         }
         image_free(&img);
         render_material_free(m);
@@ -167,12 +168,12 @@ int main(int argc, char **argv)
             return 1;
         }
         image img;
-        double sec = render_once(s, m, &o, &img);
+        cost run = render_once(s, m, &o, &img);
         total_all += wall_seconds() - t0;
-        points += (double)last_points / (img.width * img.height);
-        total += sec;
-        total_cpu += last_cpu;
-        worst = sec > worst ? sec : worst;
+        points += (double)run.points / (img.width * img.height);
+        total += run.wall;
+        total_cpu += run.cpu;
+        worst = run.wall > worst ? run.wall : worst;
         image_free(&img);
         render_material_free(m);
     }
@@ -196,8 +197,8 @@ int main(int argc, char **argv)
         render_options q = o;
         q.width = q.height = res[r];
         image img;
-        double sec = render_once(s, m, &q, &img);
-        printf("| %d | %d | %.3f | %.3f |\n", res[r], q.spp, sec, last_cpu);
+        cost run = render_once(s, m, &q, &img);
+        printf("| %d | %d | %.3f | %.3f |\n", res[r], q.spp, run.wall, run.cpu);
         image_free(&img);
     }
     int spps[] = {1, 4, 16, 64};
@@ -206,8 +207,8 @@ int main(int argc, char **argv)
         q.spp = spps[k];
         q.max_spp = 0;
         image img;
-        double sec = render_once(s, m, &q, &img);
-        printf("| 256 | %d | %.3f | %.3f |\n", q.spp, sec, last_cpu);
+        cost run = render_once(s, m, &q, &img);
+        printf("| 256 | %d | %.3f | %.3f |\n", q.spp, run.wall, run.cpu);
         image_free(&img);
     }
     render_material_free(m);
