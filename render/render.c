@@ -143,8 +143,6 @@ typedef struct render_job {
     int phase; /* 1 or 2 */
     pthread_mutex_t lock;
     int next_tile;
-    render_stats stats;
-    int failed;
 } render_job;
 
 /* One thread's batch of shading points waiting for the evaluator. */
@@ -172,7 +170,7 @@ typedef struct worker {
     render_job *job;
     sg_evaluator *eval;
     batch *b;
-    float *tile_acc; /* TILE x TILE x stride */
+    float *tile_acc; /* TILE x TILE x TILE_SUMS(taps) */
     shade_counters counters;
     uint64_t camera_rays, shading_points;
 } worker;
