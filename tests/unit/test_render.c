@@ -401,6 +401,34 @@ static void test_fast_film_weights(void **state)
     render_scene_free(s);
 }
 
+/* The fast film keeps (2 radius + 1)^2 sums per cell, so it takes filters up to 3.5 px;
+ * a wider one is a clear error pointing at reference mode, which takes any. */
+static void test_fast_film_filter_limit(void **state)
+{
+    (void)state;
+    char text[4096], err[512];
+    size_t len = edited_scene(text, sizeof text, "\"filter_width\": 1.5", "\"filter_width\": 4.0");
+    render_scene *s = render_scene_load_json(text, len, "wide.json", err, sizeof err);
+    if (!s)
+        fail_msg("%s", err);
+    render_material *m = test_material(4);
+    render_options o;
+    render_options_default(&o);
+    o.width = o.height = 8;
+    image img;
+    assert_int_equal(render_image(s, m, &o, &img, NULL, err, sizeof err), -1);
+    assert_non_null(strstr(err, "3.5 px"));
+    assert_non_null(strstr(err, "reference mode"));
+    assert_null(img.pixels);
+    o.mode = RENDER_REFERENCE;
+    o.spp = 4;
+    if (render_image(s, m, &o, &img, NULL, err, sizeof err) < 0)
+        fail_msg("%s", err);
+    image_free(&img);
+    render_material_free(m);
+    render_scene_free(s);
+}
+
 /* Fast and reference modes estimate the same image: compare 8x8-pixel block means,
  * each against the two modes' combined noise measured from two seeds. Fast mode with
  * adaptive sampling too: its extra shading points depend on the neighbours' noise, and
@@ -495,6 +523,7 @@ int main(void)
         cmocka_unit_test(test_scene_errors),
         cmocka_unit_test(test_threads_do_not_change_bits),
         cmocka_unit_test(test_fast_film_weights),
+        cmocka_unit_test(test_fast_film_filter_limit),
         cmocka_unit_test(test_fast_matches_reference),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
