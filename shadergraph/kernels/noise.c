@@ -529,36 +529,13 @@ NOISE_INLINE lane_f lane_mix(lane_f a, lane_f b, lane_f t, bool b3)
     return b3 ? lane_fma(t, b, (lane_splat(1.0f) - t) * a) : lane_fma(t, b - a, a);
 }
 
-NOISE_INLINE lane_u lane_rot(lane_u x, int k) { return (x << k) | (x >> (32 - k)); }
-
-#define LANE_HASH_MIX(a, b, c)                                                             \
-    do {                                                                                   \
-        a -= c; a ^= lane_rot(c, 4);  c += b;                                               \
-        b -= a; b ^= lane_rot(a, 6);  a += c;                                               \
-        c -= b; c ^= lane_rot(b, 8);  b += a;                                               \
-        a -= c; a ^= lane_rot(c, 16); c += b;                                               \
-        b -= a; b ^= lane_rot(a, 19); a += c;                                               \
-        c -= b; c ^= lane_rot(b, 4);  b += a;                                               \
-    } while (0)
-
-#define LANE_HASH_FINAL(a, b, c)                                                           \
-    do {                                                                                   \
-        c ^= b; c -= lane_rot(b, 14);                                                       \
-        a ^= c; a -= lane_rot(c, 11);                                                       \
-        b ^= a; b -= lane_rot(a, 25);                                                       \
-        c ^= b; c -= lane_rot(b, 16);                                                       \
-        a ^= c; a -= lane_rot(c, 4);                                                        \
-        b ^= a; b -= lane_rot(a, 14);                                                       \
-        c ^= b; c -= lane_rot(b, 24);                                                       \
-    } while (0)
-
 /* hash_uint .. hash_uint4 of kernel_util.h, per lane. */
 NOISE_INLINE lane_u lane_hash1(lane_u kx)
 {
     lane_u a, b, c;
     a = b = c = lane_splat_u(0xdeadbeefu + (1u << 2) + 13u);
     a += kx;
-    LANE_HASH_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return c;
 }
 
@@ -568,7 +545,7 @@ NOISE_INLINE lane_u lane_hash2(lane_u kx, lane_u ky)
     a = b = c = lane_splat_u(0xdeadbeefu + (2u << 2) + 13u);
     b += ky;
     a += kx;
-    LANE_HASH_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return c;
 }
 
@@ -579,7 +556,7 @@ NOISE_INLINE lane_u lane_hash3(lane_u kx, lane_u ky, lane_u kz)
     c += kz;
     b += ky;
     a += kx;
-    LANE_HASH_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return c;
 }
 
@@ -590,9 +567,9 @@ NOISE_INLINE lane_u lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
     a += kx;
     b += ky;
     c += kz;
-    LANE_HASH_MIX(a, b, c);
+    HASH_MIX(a, b, c);
     a += kw;
-    LANE_HASH_FINAL(a, b, c);
+    HASH_FINAL(a, b, c);
     return c;
 }
 
