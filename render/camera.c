@@ -51,15 +51,6 @@ float pixel_filter_sample(const pixel_filter *f, float u)
     return (1.0f - t) * f->table[i] + t * f->table[i + 1];
 }
 
-float pixel_filter_eval(const pixel_filter *f, float x)
-{
-    double full = 2.0 * (double)f->width;
-    if (fabs(x) > 0.5 * full)
-        return 0.0f;
-    double v = 2.0 * M_PI * ((double)x / full + 0.5);
-    return (float)(BH_A0 - BH_A1 * cos(v) + BH_A2 * cos(2.0 * v) - BH_A3 * cos(3.0 * v));
-}
-
 float pixel_filter_density(const pixel_filter *f, float x)
 {
     /* The window's cosine terms integrate to 0 over the support, so its integral is

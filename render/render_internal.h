@@ -72,8 +72,6 @@ typedef struct pixel_filter {
 
 void pixel_filter_init(pixel_filter *f, float width);
 float pixel_filter_sample(const pixel_filter *f, float u); /* offset in pixels */
-/* The 1D window's value at offset x pixels (unnormalised), 0 outside the support. */
-float pixel_filter_eval(const pixel_filter *f, float x);
 /* The 1D density the table samples: the window divided by its integral, so that
  * integral over x of pixel_filter_density(x) = 1; 0 outside the support. */
 float pixel_filter_density(const pixel_filter *f, float x);
