@@ -429,13 +429,9 @@ static void film_resolve(const render_job *job, float *film)
                                   (size_t)(px - dx + r);
                     const float *u = &job->sums[(size_t)UNIT_SUMS(job->taps) * unit];
                     const float *t = u + 4 * ((dy + r) * side + (dx + r));
-                    if (r == 0) {
-                        for (int c = 0; c < 3; c++)
-                            v[c] = t[c] / t[3]; /* the samples' mean */
-                        continue;
-                    }
-                    /* The tap's weighted mean, or where every weight is 0 (points on the
-                     * edge of the support) the cell's plain mean. */
+                    /* The tap's weighted mean (reference mode: weights 1, I 1: the
+                     * samples' mean), or where every weight is 0 (points on the edge of
+                     * the support) the cell's plain mean. */
                     float I = (float)(job->cell_weight[dx + r] * job->cell_weight[dy + r]);
                     const float *mean = t[3] > 0.0f ? t : u + 4 * job->taps;
                     float norm = t[3] > 0.0f ? t[3]
@@ -449,10 +445,10 @@ static void film_resolve(const render_job *job, float *film)
 }
 
 /* Phase 2's plan: for each unit, from the phase-1 statistics of the 24 others in the 5 x 5
- * cells around it (never its own: see the top of the file), the number of extra shading points that brings the
- * standard error its samples give a pixel to noise_target x sqrt(the neighbours' mean
- * (at least 0.01) x the image's mean), as a square k^2 (a stratified set), with
- * spp + k^2 <= max_spp.
+ * cells around it (never its own: see the top of the file), the number of extra shading
+ * points that brings the standard error its samples give a pixel to noise_target x
+ * sqrt(the neighbours' mean (at least 0.01) x the image's mean), as a square k^2 (a
+ * stratified set), with spp + k^2 <= max_spp.
  * Why that scale: relative to the local mean alone, dark regions of a dark image were
  * sampled far beyond what the image's RMSE needed, and smooth frames stayed noisier than
  * Cycles-252 while costing more; relative to the image's mean alone, glints in dark
@@ -612,6 +608,8 @@ int render_image(const render_scene *s, const render_material *m, const render_o
             w2 += I * I;
         }
         job->cell_w2 = (float)(w2 * w2);
+    } else {
+        job->cell_weight[0] = 1.0; /* a unit is its pixel */
     }
     int side = 2 * job->radius + 1;
     job->taps = side * side;
