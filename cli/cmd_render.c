@@ -202,11 +202,12 @@ int cmd_render(int argc, char **argv)
     if (want_stats)
         fprintf(stderr,
                 "imsynth render: %.3f s, %llu camera rays, %llu shading points, %llu shadow "
-                "rays, %llu indirect hits, %llu shading points added by adaptive sampling\n",
+                "rays, %llu indirect hits, %llu shading points added by adaptive sampling, "
+                "%.3f s in the material evaluator (summed over threads)\n",
                 st.seconds, (unsigned long long)st.camera_rays,
                 (unsigned long long)st.shading_points, (unsigned long long)st.shadow_rays,
                 (unsigned long long)st.indirect_hits,
-                (unsigned long long)st.extra_shading_points);
+                (unsigned long long)st.extra_shading_points, st.material_seconds);
     if (image_write_exr(out_path, &img, want_float ? IMAGE_EXR_FLOAT : IMAGE_EXR_HALF, err,
                         sizeof err) < 0 ||
         (png_path && image_write_png(png_path, &img, err, sizeof err) < 0)) {

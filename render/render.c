@@ -173,7 +173,15 @@ typedef struct worker {
     float *tile_acc; /* TILE x TILE x TILE_SUMS(taps) */
     shade_counters counters;
     uint64_t camera_rays, shading_points;
+    double material_seconds; /* inside sg_evaluate */
 } worker;
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 /* Lay out the batch's geometry as the evaluator's planar arrays. */
 static void batch_geometry(batch *b, sg_geometry_batch *gb)
@@ -252,7 +260,9 @@ static void batch_flush(worker *w, tile_film *tf)
     batch_geometry(b, &gb);
     float *outs[IN_COUNT] = {b->out_color, b->out_metallic, b->out_roughness, b->out_ior,
                              b->out_alpha, b->out_normal, b->out_spec, b->out_tint};
+    double t0 = now_seconds();
     sg_evaluate(w->eval, &gb, outs);
+    w->material_seconds += now_seconds() - t0;
     int n = b->n;
     for (int i = 0; i < n; i++) {
         principled_inputs in;
@@ -522,13 +532,6 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 int render_image(const render_scene *s, const render_material *m, const render_options *o,
                  image *out, render_stats *stats, char *err, size_t errlen)
 {
@@ -682,6 +685,7 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         st.shading_points += workers[i].shading_points;
         st.shadow_rays += workers[i].counters.shadow_rays;
         st.indirect_hits += workers[i].counters.indirect_hits;
+        st.material_seconds += workers[i].material_seconds;
         if (workers[i].eval)
             sg_evaluator_free(workers[i].eval);
         free(workers[i].b);

@@ -72,6 +72,11 @@ typedef struct render_stats {
      * scene's plane cannot see itself); a scene where this is non-zero needs more bounces
      * and the render is then darker than Cycles'. */
     uint64_t indirect_hits;
+    /* Time spent inside the material evaluator (sg_evaluate), summed over the worker
+     * threads: the part of a shading point's cost that no integrator can avoid, since
+     * every shading point needs the material's values. The benchmark uses it to bound
+     * how fast any estimator with the same number of shading points could be. */
+    double material_seconds;
 } render_stats;
 
 /* Renders an RGB image (allocated here; free with image_free). stats may be NULL.

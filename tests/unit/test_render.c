@@ -356,6 +356,9 @@ static void test_threads_do_not_change_bits(void **state)
                 assert_true(st.extra_shading_points > 0);
             else
                 assert_true(st.extra_shading_points == 0);
+            /* The evaluator's time is part of the workers' time. */
+            assert_true(st.material_seconds > 0.0);
+            assert_true(st.material_seconds <= st.seconds * o.threads);
         }
         size_t bytes = sizeof(float) * 3 * 40 * 40;
         assert_memory_equal(img[0].pixels, img[1].pixels, bytes);
