@@ -25,6 +25,10 @@ Per case and Blender version:
            RMSE^2): how much faster imsynth would be at Cycles' RMSE if both errors fell as
            1 / sqrt(time), as Monte Carlo errors do; compares configurations that land at
            different RMSEs.
+  material-only ceiling  the same, with imsynth's time replaced by the time its workers
+           spent inside the material evaluator (imsynth --stats, divided by the cores):
+           the best any integrator could do at imsynth's variance per shading point if
+           camera rays, BSDF, light samples and film cost nothing.
 Prints a Markdown table (for BENCHMARKS.md) and, with --out, writes the numbers as JSON.
 Plain python3; Blender 3.4 on PATH and 4.3 in /srv/trixie (scripts/setup-oracles). Run
 it on an otherwise idle machine: both renderers use all cores.
@@ -60,9 +64,10 @@ def imsynth_render(imsynth, graph, version, out, extra):
     cmd = [imsynth, "render", graph, "--blender", version[0], "-o", out, "--stats"] + extra
     r = subprocess.run(cmd, capture_output=True, text=True)
     m = re.search(r"imsynth render: ([0-9.]+) s", r.stderr)
-    if r.returncode != 0 or not m:
+    mat = re.search(r"([0-9.]+) s in the material evaluator", r.stderr)
+    if r.returncode != 0 or not m or not mat:
         raise SystemExit("bench_render_cycles: %s failed:\n%s" % (" ".join(cmd), r.stderr))
-    return float(m.group(1))
+    return float(m.group(1)), float(mat.group(1))
 
 
 def main():
@@ -80,6 +85,8 @@ def main():
     imsynth = find_imsynth(a.imsynth, "bench_render_cycles")
     names = a.cases.split(",") if a.cases else sorted(
         os.path.basename(d) for d in glob.glob(os.path.join(CASES, "supershader_s*")))
+    # imsynth renders on every core; its material time is summed over them.
+    cores = len(os.sched_getaffinity(0))
     rows = []
     work = tempfile.mkdtemp(prefix="bench_render_cycles-")
     try:
@@ -102,12 +109,14 @@ def main():
                 for config in configs:
                     extra = config.split()
                     ours_exr = os.path.join(work, "ours.exr")
-                    ours_seconds = min(imsynth_render(imsynth, graph, version, ours_exr, extra)
-                                       for _ in range(a.repeat))
+                    ours_seconds, material_seconds = min(
+                        imsynth_render(imsynth, graph, version, ours_exr, extra)
+                        for _ in range(a.repeat))
                     ours = compare(imsynth, ours_exr, case, version)
                     row = {"case": name, "blender": version, "cycles_samples": a.samples,
                            "cycles_seconds": cyc_seconds, "cycles_rmse": cyc["rmse_converged"],
                            "imsynth_seconds": ours_seconds,
+                           "material_seconds": material_seconds / cores,
                            "imsynth_rmse": ours["rmse_converged"], "ref_mean": ours["ref_mean"],
                            "ref_noise_rmse": ours["ref_noise_rmse"],
                            "imsynth_options": config or "defaults"}
@@ -121,17 +130,24 @@ def main():
         ours = r["imsynth_seconds"] * r["imsynth_rmse"] ** 2
         return r["cycles_seconds"] * r["cycles_rmse"] ** 2 / ours if ours > 0 else float("nan")
 
+    def material_ceiling(r):
+        # The speed-up at Cycles' RMSE if a frame cost nothing but its material
+        # evaluations: the same estimator (same variance per shading point), with camera
+        # rays, BSDF, light samples and film free. Shading points needed scale as RMSE^-2.
+        floor = r["material_seconds"] * (r["imsynth_rmse"] / r["cycles_rmse"]) ** 2
+        return r["cycles_seconds"] / floor if floor > 0 else float("nan")
+
     print("| case | Blender | imsynth options | Cycles-%d s/frame | imsynth s/frame | speed-up "
-          "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE | equal-RMSE speed-up |"
-          % (a.samples, a.samples))
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE | equal-RMSE speed-up "
+          "| material s/frame | material-only ceiling |" % (a.samples, a.samples))
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f | %.1fx |" % (
+        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f | %.1fx | %.3f | %.0fx |" % (
             r["case"], r["blender"], r["imsynth_options"], r["cycles_seconds"],
             r["imsynth_seconds"],
             r["cycles_seconds"] / r["imsynth_seconds"], r["cycles_rmse"], r["imsynth_rmse"],
             r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan"),
-            equal_rmse(r)))
+            equal_rmse(r), r["material_seconds"], material_ceiling(r)))
     for config in configs:
         sel = [r for r in rows if r["imsynth_options"] == (config or "defaults")]
         if not sel:
