@@ -53,6 +53,7 @@
 
 #include <math.h>
 #include <stdbool.h>
+#include <stddef.h>
 
 #include "render/microfacet_tables.h"
 
@@ -694,12 +695,12 @@ void principled_closure_eval(const closures *cl, const float wi[3], float f_cos[
     closures_eval(cl, v3_load(wi), f_cos, pdf);
 }
 
-int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
-                              float f_cos[3], float *pdf)
+void principled_closure_sample_direction(const closures *cl, const float u[3],
+                                         principled_sampled *s)
 {
-    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
-    *pdf = 0.0f;
-    wi[0] = wi[1] = wi[2] = 0.0f;
+    s->lobe = -1;
+    s->raw_ok = s->usable = 0;
+    s->raw = v3(0.0f, 0.0f, 0.0f);
     /* Pick a lobe by u[2]. */
     int pick = -1;
     float acc = 0.0f;
@@ -712,20 +713,31 @@ int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
             break;
     }
     if (pick < 0)
-        return 0;
+        return;
     const lobe *l = &cl->lobe[pick];
+    s->lobe = pick;
     vec3 L;
     if (pick == LOBE_DIFFUSE) {
         L = diffuse_sample_direction(l, u[0], u[1]);
-        if (v3_dot(cl->Ng, L) <= 0.0f || safe_sqrt(1.0f - u[0]) <= 0.0f)
-            return 0;
-    } else if (!microfacet_sample(cl, l, u[0], u[1], &L)) {
-        return 0;
+        s->raw_ok = 1;
+        s->usable = v3_dot(cl->Ng, L) > 0.0f && safe_sqrt(1.0f - u[0]) > 0.0f;
+    } else {
+        s->raw_ok = microfacet_sample_direction(cl, l, u[0], u[1], &L);
+        s->usable = s->raw_ok && v3_dot(cl->Ng, L) > 0.0f && v3_dot(l->N, L) > 0.0f;
     }
-    wi[0] = L.x;
-    wi[1] = L.y;
-    wi[2] = L.z;
-    closures_eval(cl, L, f_cos, pdf);
+    if (s->raw_ok)
+        s->raw = L;
+}
+
+void principled_closure_sampled_eval(const closures *cl, const principled_sampled *s,
+                                     float f_cos[3], float *pdf)
+{
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+    *pdf = 0.0f;
+    if (!s->usable)
+        return;
+    const lobe *l = &cl->lobe[s->lobe];
+    closures_eval(cl, s->raw, f_cos, pdf);
     if (l->singular) {
         /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
         float F[3];
@@ -734,6 +746,23 @@ int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
             f_cos[c] += SINGULAR_SCALE * l->weight[c] * F[c];
         *pdf += SINGULAR_SCALE * l->prob;
     }
+}
+
+int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
+                              float f_cos[3], float *pdf)
+{
+    principled_sampled s;
+    principled_closure_sample_direction(cl, u, &s);
+    if (!s.usable) {
+        f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
+        *pdf = 0.0f;
+        wi[0] = wi[1] = wi[2] = 0.0f;
+        return 0;
+    }
+    wi[0] = s.raw.x;
+    wi[1] = s.raw.y;
+    wi[2] = s.raw.z;
+    principled_closure_sampled_eval(cl, &s, f_cos, pdf);
     return *pdf > 0.0f;
 }
 
@@ -947,6 +976,12 @@ void principled_albedo_uncut(const closures *cl, float albedo[3])
 
 void principled_albedo_cut_estimate(const closures *cl, const float u[3], float cut[3])
 {
+    principled_albedo_cut_estimate_shared(cl, u, NULL, cut);
+}
+
+void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
+                                           const principled_sampled *sampled, float cut[3])
+{
     cut[0] = cut[1] = cut[2] = 0.0f;
     if (!cl->bumped)
         return;
@@ -971,10 +1006,16 @@ void principled_albedo_cut_estimate(const closures *cl, const float u[3], float 
     if (pick < 0)
         return;
     vec3 L;
-    if (pick == LOBE_DIFFUSE)
+    if (sampled && sampled->lobe == pick) {
+        /* The same lobe at the same (u[0], u[1]): the same direction. */
+        if (!sampled->raw_ok)
+            return;
+        L = sampled->raw;
+    } else if (pick == LOBE_DIFFUSE) {
         L = diffuse_sample_direction(&cl->lobe[pick], u[0], u[1]);
-    else if (!microfacet_sample_direction(cl, &cl->lobe[pick], u[0], u[1], &L))
+    } else if (!microfacet_sample_direction(cl, &cl->lobe[pick], u[0], u[1], &L)) {
         return;
+    }
     /* Above Ng the cut changes nothing but 3.x's diffuse (its bump shadowing term): the
      * microfacet lobes' cut and uncut values are the same there, and 4.x's diffuse is
      * exact in its table. Most samples end here. */

@@ -104,6 +104,23 @@ void principled_closure_eval(const principled_closure *c, const float wi[3], flo
                              float *pdf);
 int principled_closure_sample(const principled_closure *c, const float u[3], float wi[3],
                               float f_cos[3], float *pdf);
+
+/* principled_closure_sample() in two steps, for an integrator that needs the value only
+ * for some directions (fast mode: those that find the light): the direction, then its
+ * value. Same bits as principled_closure_sample(). `raw` is the chosen lobe's sampler's
+ * direction wherever it points (principled_albedo_cut_estimate_shared() reuses it);
+ * `usable` says it is the direction principled_closure_sample() returns (above Ng and
+ * the lobe's own hemisphere); sampled_eval() gives zeros otherwise. */
+typedef struct principled_sampled {
+    int lobe;   /* the lobe u[2] picked, -1 if none is active */
+    int raw_ok; /* the lobe's sampler gave a direction */
+    int usable;
+    principled_vec3 raw;
+} principled_sampled;
+void principled_closure_sample_direction(const principled_closure *c, const float u[3],
+                                         principled_sampled *s);
+void principled_closure_sampled_eval(const principled_closure *c, const principled_sampled *s,
+                                     float f_cos[3], float *pdf);
 void principled_closure_albedo(const principled_closure *c, float albedo[3]);
 
 /* The directional albedo in two parts, for bumped normals. principled_albedo_uncut() is
@@ -118,5 +135,9 @@ void principled_closure_albedo(const principled_closure *c, float albedo[3]);
 void principled_albedo_uncut(const principled_closure *c, float albedo[3]);
 void principled_albedo_cut_estimate(const principled_closure *c, const float u[3],
                                     float cut[3]);
+/* The same, reusing the direction principled_closure_sample_direction() sampled from the
+ * same u (NULL: sample it here); same bits. */
+void principled_albedo_cut_estimate_shared(const principled_closure *c, const float u[3],
+                                           const principled_sampled *sampled, float cut[3]);
 
 #endif

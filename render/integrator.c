@@ -107,20 +107,27 @@ static void light_estimate(const shade_setup *s, const shading_geometry *g,
 }
 
 /* BSDF sampling: the light where the ray finds it (MIS-weighted) and, when with_world,
- * the world (not light-sampled, so weight 1). */
+ * the world (not light-sampled, so weight 1). The BSDF's value is computed only for
+ * directions that contribute: without the world (fast mode) most miss the small light. */
 static void bsdf_estimate(const shade_setup *s, const shading_geometry *g,
-                          const principled_closure *bsdf, const float u[3], int with_world,
-                          float L[3], shade_counters *cnt)
+                          const principled_closure *bsdf, const principled_sampled *smp,
+                          int with_world, float L[3], shade_counters *cnt)
 {
-    float wi[3], f[3], pdf;
-    if (!principled_closure_sample(bsdf, u, wi, f, &pdf) || pdf <= 0.0f)
+    if (!smp->usable)
         return;
+    const float wi[3] = {smp->raw.x, smp->raw.y, smp->raw.z};
     float t = INFINITY, pdf_light = 0.0f;
     int hits_light = s->light && point_light_intersect(s->light, g->P, wi, &t, &pdf_light);
+    if (!with_world && !hits_light)
+        return;
+    float f[3], pdf;
+    principled_closure_sampled_eval(bsdf, smp, f, &pdf);
+    if (!(pdf > 0.0f))
+        return;
     /* Without the world (fast mode) only a ray that finds the light matters, and only
      * geometry in front of the light can block it. */
     float tmax = with_world ? INFINITY : t * 0.9999f;
-    if ((with_world || hits_light) && render_occluded(s->scene, g->P, g->Ng, wi, tmax)) {
+    if (render_occluded(s->scene, g->P, g->Ng, wi, tmax)) {
         cnt->indirect_hits++;
         return;
     }
@@ -149,7 +156,9 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
         float u[3] = {render_random(s->seed, pixel, sample, DIM_BSDF_U),
                       render_random(s->seed, pixel, sample, DIM_BSDF_V),
                       render_random(s->seed, pixel, sample, DIM_BSDF_W)};
-        bsdf_estimate(s, g, &bsdf, u, 1, L, cnt);
+        principled_sampled smp;
+        principled_closure_sample_direction(&bsdf, u, &smp);
+        bsdf_estimate(s, g, &bsdf, &smp, 1, L, cnt);
         return;
     }
 
@@ -176,11 +185,13 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
                                                               (3u ^ set_salt)),
                            (int)total, render_random(s->seed, pixel, sub, DIM_BSDF_W));
         float bu[3] = {bu2[0], bu2[1], bw};
+        principled_sampled smp;
+        principled_closure_sample_direction(&bsdf, bu, &smp);
         if (s->light)
-            bsdf_estimate(s, g, &bsdf, bu, 0, acc, cnt);
+            bsdf_estimate(s, g, &bsdf, &smp, 0, acc, cnt);
         if (bsdf.bumped) {
             float c[3];
-            principled_albedo_cut_estimate(&bsdf, bu, c);
+            principled_albedo_cut_estimate_shared(&bsdf, bu, &smp, c);
             for (int k = 0; k < 3; k++)
                 cut[k] += c[k];
         }

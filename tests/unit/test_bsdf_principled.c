@@ -390,6 +390,24 @@ static void test_prepared_closure(void **state)
         assert_memory_equal(w1, w2, sizeof w1);
         assert_memory_equal(f1, f2, sizeof f1);
         assert_true(p1 == p2);
+        /* In two steps (the direction, then its value): the same. */
+        principled_sampled smp;
+        principled_closure_sample_direction(&c, u, &smp);
+        principled_closure_sampled_eval(&c, &smp, f1, &p1);
+        assert_int_equal(smp.usable && p1 > 0.0f, ok2);
+        if (smp.usable) {
+            float raw[3] = {smp.raw.x, smp.raw.y, smp.raw.z};
+            assert_memory_equal(raw, w2, sizeof raw);
+            assert_memory_equal(f1, f2, sizeof f1);
+            assert_true(p1 == p2);
+        } else {
+            assert_true(f1[0] == 0.0f && f1[1] == 0.0f && f1[2] == 0.0f && p1 == 0.0f);
+        }
+        /* The cut estimate reusing that direction: the same bits as sampling it anew. */
+        float cut1[3], cut2[3];
+        principled_albedo_cut_estimate(&c, u, cut1);
+        principled_albedo_cut_estimate_shared(&c, u, &smp, cut2);
+        assert_memory_equal(cut1, cut2, sizeof cut1);
     }
     /* Seen from below the surface: not prepared, and every function gives zeros. */
     principled_inputs in;
