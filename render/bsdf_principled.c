@@ -277,6 +277,12 @@ static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
         F[c] = mixf(l->f0[c], 1.0f, s);
 }
 
+/* The microfacet formula for the direction L wherever it is relative to the lobe's
+ * normal (Lambda depends on cos^2 only); see microfacet_eval_uncut and
+ * microfacet_sampled_value. */
+static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float cos_nv,
+                               float cos_nl, float f[3], float *pdf);
+
 /* f * |cos| (without weight) and pdf of a microfacet lobe over its own hemisphere, as
  * if the geometric surface did not cut it; 0 if invalid or singular. */
 static void microfacet_eval_uncut(const closures *cl, const lobe *l, vec3 L, float f[3],
@@ -287,6 +293,31 @@ static void microfacet_eval_uncut(const closures *cl, const lobe *l, vec3 L, flo
     float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
     if (l->singular || cos_nv <= 0.0f || cos_nl <= 0.0f)
         return;
+    microfacet_formula(cl, l, L, cos_nv, cos_nl, f, pdf);
+}
+
+/* What Cycles' microfacet sampler reports for a direction it sampled, which is more than
+ * the lobe's eval: the sampler (3.4 and 4.3 alike) rejects a reflection only when it
+ * points below Ng, so with a bumped normal a direction above Ng but below the lobe's
+ * own hemisphere (cos_nl < 0: the "sampler-only" region) keeps the value of the formula
+ * (F D G / (4 cos_nv), Lambda of |cos_nl|), while eval gives such a direction 0. That is
+ * the world's contribution there, as Cycles does not light-sample a uniform world; a
+ * render that dropped it was 0.75% dark in its world term on supershader_s4. Equal to
+ * microfacet_eval_uncut where cos_nl > 0. */
+static void microfacet_sampled_value(const closures *cl, const lobe *l, vec3 L, float f[3],
+                                     float *pdf)
+{
+    f[0] = f[1] = f[2] = 0.0f;
+    *pdf = 0.0f;
+    float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
+    if (l->singular || cos_nv <= 0.0f || cos_nl == 0.0f)
+        return;
+    microfacet_formula(cl, l, L, cos_nv, cos_nl, f, pdf);
+}
+
+static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float cos_nv,
+                               float cos_nl, float f[3], float *pdf)
+{
     vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
     float alpha2 = l->alpha * l->alpha;
     float D = ggx_D(alpha2, v3_dot(l->N, H));
@@ -359,11 +390,12 @@ static bool microfacet_sample_direction(const closures *cl, const lobe *l, float
     return true;
 }
 
-/* Samples a microfacet lobe's direction; false if none (reflection below the surface). */
+/* Samples a microfacet lobe's direction; false if none. As in Cycles, only a reflection
+ * below the geometric surface is rejected, not one below the lobe's own hemisphere (see
+ * microfacet_sampled_value). */
 static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, vec3 *L)
 {
-    return microfacet_sample_direction(cl, l, u1, u2, L) && v3_dot(cl->Ng, *L) > 0.0f &&
-           v3_dot(l->N, *L) > 0.0f;
+    return microfacet_sample_direction(cl, l, u1, u2, L) && v3_dot(cl->Ng, *L) > 0.0f;
 }
 
 /* f * cos (without weight) and pdf of the diffuse lobe over its own hemisphere, without
@@ -723,7 +755,7 @@ void principled_closure_sample_direction(const closures *cl, const float u[3],
         s->usable = v3_dot(cl->Ng, L) > 0.0f && safe_sqrt(1.0f - u[0]) > 0.0f;
     } else {
         s->raw_ok = microfacet_sample_direction(cl, l, u[0], u[1], &L);
-        s->usable = s->raw_ok && v3_dot(cl->Ng, L) > 0.0f && v3_dot(l->N, L) > 0.0f;
+        s->usable = s->raw_ok && v3_dot(cl->Ng, L) > 0.0f;
     }
     if (s->raw_ok)
         s->raw = L;
@@ -738,6 +770,15 @@ void principled_closure_sampled_eval(const closures *cl, const principled_sample
         return;
     const lobe *l = &cl->lobe[s->lobe];
     closures_eval(cl, s->raw, f_cos, pdf);
+    if (!l->singular && s->lobe != LOBE_DIFFUSE && !(v3_dot(l->N, s->raw) > 0.0f)) {
+        /* The sampler-only region: eval gave this lobe nothing (nor the others, which
+         * share its normal); Cycles counts the sampled lobe's own value and density. */
+        float f[3], p;
+        microfacet_sampled_value(cl, l, s->raw, f, &p);
+        for (int c = 0; c < 3; c++)
+            f_cos[c] += l->weight[c] * f[c];
+        *pdf += l->prob * p;
+    }
     if (l->singular) {
         /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
         float F[3];
@@ -808,10 +849,11 @@ static bool lobe_ratio(const closures *cl, int i, int also, float u1, float u2, 
             if (also >= 0)
                 lobe_fresnel(&cl->lobe[also], v3_dot(l->N, cl->V), r2);
         } else {
-            microfacet_eval(cl, l, L, f, &p);
+            /* microfacet_sample keeps L above Ng; the value is the sampler's. */
+            microfacet_sampled_value(cl, l, L, f, &p);
             if (also >= 0 && p > 0.0f) {
                 float p2;
-                microfacet_eval(cl, &cl->lobe[also], L, r2, &p2);
+                microfacet_sampled_value(cl, &cl->lobe[also], L, r2, &p2);
                 for (int c = 0; c < 3; c++)
                     r2[c] /= p;
             }
@@ -1016,12 +1058,19 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
     } else if (!microfacet_sample_direction(cl, &cl->lobe[pick], u[0], u[1], &L)) {
         return;
     }
-    /* Above Ng the cut changes nothing but 3.x's diffuse (its bump shadowing term): the
-     * microfacet lobes' cut and uncut values are the same there, and 4.x's diffuse is
-     * exact in its table. Most samples end here. */
+    /* Above Ng and inside the lobes' hemisphere nothing differs from the tables but 3.x's
+     * diffuse (its bump shadowing term): there the microfacet lobes' values are the
+     * tables' integrands, and 4.x's diffuse is exact in its table. Most samples end
+     * here. Above Ng but below the lobes' hemisphere Cycles' sampler still counts the
+     * microfacet value (microfacet_sampled_value), which the tables leave out. */
     const bool above = v3_dot(cl->Ng, L) > 0.0f;
     const bool diffuse_3x = cl->blender == 3 && cl->lobe[LOBE_DIFFUSE].active;
-    if (above && !diffuse_3x)
+    bool sampler_only = false;
+    for (int i = 0; above && i < N_LOBES; i++)
+        if (i != LOBE_DIFFUSE && cl->lobe[i].active && !cl->lobe[i].singular &&
+            !(v3_dot(cl->lobe[i].N, L) > 0.0f))
+            sampler_only = true;
+    if (above && !diffuse_3x && !sampler_only)
         return;
     /* The mixture density of that sampling, wherever L points. */
     float q = 0.0f;
@@ -1040,16 +1089,19 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
         /* 4.x's diffuse table already includes the cut and the shadowing term; above Ng
          * only 3.x's diffuse differs from its uncut value. */
         if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4) ||
-            (above && i != LOBE_DIFFUSE))
+            (above && i != LOBE_DIFFUSE && v3_dot(l->N, L) > 0.0f))
             continue;
-        float f[3], g[3], p;
+        float f[3] = {0, 0, 0}, g[3], p;
         if (i == LOBE_DIFFUSE) {
             diffuse_eval(cl, l, L, &f[0], &p);
             diffuse_eval_uncut(cl, l, L, &g[0], &p);
             f[1] = f[2] = f[0];
             g[1] = g[2] = g[0];
         } else {
-            microfacet_eval(cl, l, L, f, &p);
+            /* Cycles' value: the sampler's above Ng (also below the lobe's hemisphere,
+             * where the table has 0), nothing below. */
+            if (above)
+                microfacet_sampled_value(cl, l, L, f, &p);
             microfacet_eval_uncut(cl, l, L, g, &p);
         }
         for (int c = 0; c < 3; c++)
