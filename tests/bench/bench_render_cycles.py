@@ -6,6 +6,7 @@ reference (tests/reference/render/supershader_s*/, 2 x 2048 samples).
     python3 tests/bench/bench_render_cycles.py [--versions 4.3,3.4] [--samples 252]
         [--cases supershader_s0,...] [--imsynth PATH] [--repeat 3] [--out results.json]
         [--config "imsynth render options"]...
+    python3 tests/bench/bench_render_cycles.py --table results.json   # reprint a run
 
 Each --config is one imsynth configuration to time against the same Cycles render (e.g.
 --config "" for the defaults, --config "--max-spp 0 --spp 16"); default: the defaults.
@@ -27,8 +28,9 @@ Per case and Blender version:
            different RMSEs.
   material-only ceiling  the same, with imsynth's time replaced by the time its workers
            spent inside the material evaluator (imsynth --stats, divided by the cores):
-           the best any integrator could do at imsynth's variance per shading point if
-           camera rays, BSDF, light samples and film cost nothing.
+           an upper bound on the speed-up at Cycles' RMSE of that configuration's
+           estimator if camera rays, BSDF, light samples and film cost nothing. Given only
+           where imsynth's RMSE is below Cycles' (see material_ceiling()).
 Prints a Markdown table (for BENCHMARKS.md) and, with --out, writes the numbers as JSON.
 Plain python3; Blender 3.4 on PATH and 4.3 in /srv/trixie (scripts/setup-oracles). Run
 it on an otherwise idle machine: both renderers use all cores.
@@ -80,8 +82,24 @@ def main():
     p.add_argument("--imsynth")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--out")
+    p.add_argument("--table", help="print the tables of an earlier --out file; render nothing")
     a = p.parse_args(argv)
+    if a.table:
+        with open(a.table) as f:
+            rows = json.load(f)
+        labels = list(dict.fromkeys(r["imsynth_options"] for r in rows))
+        print_tables(rows, rows[0]["cycles_samples"] if rows else a.samples, labels)
+        return
     configs = a.config if a.config else [""]
+    rows = measure(a, configs)
+    print_tables(rows, a.samples, [c or "defaults" for c in configs])
+    if a.out:
+        with open(a.out + ".tmp", "w") as f:
+            json.dump(rows, f, indent=1)
+        os.replace(a.out + ".tmp", a.out)
+
+
+def measure(a, configs):
     imsynth = find_imsynth(a.imsynth, "bench_render_cycles")
     names = a.cases.split(",") if a.cases else sorted(
         os.path.basename(d) for d in glob.glob(os.path.join(CASES, "supershader_s*")))
@@ -126,30 +144,42 @@ def main():
                         ours_seconds, row["imsynth_rmse"]), file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
+    return rows
+
+
+def print_tables(rows, samples, labels):
     def equal_rmse(r):
         ours = r["imsynth_seconds"] * r["imsynth_rmse"] ** 2
         return r["cycles_seconds"] * r["cycles_rmse"] ** 2 / ours if ours > 0 else float("nan")
 
     def material_ceiling(r):
         # The speed-up at Cycles' RMSE if a frame cost nothing but its material
-        # evaluations: the same estimator (same variance per shading point), with camera
-        # rays, BSDF, light samples and film free. Shading points needed scale as RMSE^-2.
+        # evaluations: the same estimator, with camera rays, BSDF, light samples and film
+        # free, and its shading points cut to land at Cycles' RMSE. Cutting them by
+        # (RMSE ratio)^2 assumes the error grows as 1/sqrt(points) when they are cut;
+        # ours grows more slowly (stratified cells: ~points^-0.9 on smooth frames), so
+        # fewer can be cut and the true figure is lower: an upper bound - but only from
+        # below Cycles' RMSE. From above it the same rule would overstate the points
+        # needed, so those rows get none.
+        if not r["imsynth_rmse"] <= r["cycles_rmse"]:
+            return None
         floor = r["material_seconds"] * (r["imsynth_rmse"] / r["cycles_rmse"]) ** 2
-        return r["cycles_seconds"] / floor if floor > 0 else float("nan")
+        return r["cycles_seconds"] / floor if floor > 0 else None
 
     print("| case | Blender | imsynth options | Cycles-%d s/frame | imsynth s/frame | speed-up "
           "| Cycles-%d RMSE | imsynth RMSE | imsynth / Cycles RMSE | equal-RMSE speed-up "
-          "| material s/frame | material-only ceiling |" % (a.samples, a.samples))
+          "| material s/frame | material-only ceiling |" % (samples, samples))
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f | %.1fx | %.3f | %.0fx |" % (
+        print("| %s | %s | %s | %.2f | %.3f | %.1fx | %.5f | %.5f | %.2f | %.1fx | %.3f | %s |" % (
             r["case"], r["blender"], r["imsynth_options"], r["cycles_seconds"],
             r["imsynth_seconds"],
             r["cycles_seconds"] / r["imsynth_seconds"], r["cycles_rmse"], r["imsynth_rmse"],
             r["imsynth_rmse"] / r["cycles_rmse"] if r["cycles_rmse"] > 0 else float("nan"),
-            equal_rmse(r), r["material_seconds"], material_ceiling(r)))
-    for config in configs:
-        sel = [r for r in rows if r["imsynth_options"] == (config or "defaults")]
+            equal_rmse(r), r["material_seconds"],
+            "-" if material_ceiling(r) is None else "%.0fx" % material_ceiling(r)))
+    for label in labels:
+        sel = [r for r in rows if r["imsynth_options"] == label]
         if not sel:
             continue
         geo = geo_equal = 1.0
@@ -158,13 +188,9 @@ def main():
             geo_equal *= equal_rmse(r)
         print("\nimsynth [%s]: geometric-mean speed-up %.1fx over %d frames; RMSE below "
               "Cycles-%d's in %d of %d; equal-RMSE speed-up %.1fx (geometric mean)." % (
-                  config or "defaults", geo ** (1.0 / len(sel)), len(sel), a.samples,
+                  label, geo ** (1.0 / len(sel)), len(sel), samples,
                   sum(r["imsynth_rmse"] < r["cycles_rmse"] for r in sel), len(sel),
                   geo_equal ** (1.0 / len(sel))))
-    if a.out:
-        with open(a.out + ".tmp", "w") as f:
-            json.dump(rows, f, indent=1)
-        os.replace(a.out + ".tmp", a.out)
 
 
 if __name__ == "__main__":
