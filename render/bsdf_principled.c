@@ -277,11 +277,34 @@ static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
         F[c] = mixf(l->f0[c], 1.0f, s);
 }
 
-/* The microfacet formula for the direction L wherever it is relative to the lobe's
- * normal (Lambda depends on cos^2 only); see microfacet_eval_uncut and
- * microfacet_sampled_value. */
+/* The microfacet formula (f * |cos| without weight, and pdf) for the direction L wherever
+ * it is relative to the lobe's normal: Lambda depends on cos^2 only. The callers below
+ * decide where it applies. */
 static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float cos_nv,
-                               float cos_nl, float f[3], float *pdf);
+                               float cos_nl, float f[3], float *pdf)
+{
+    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
+    float alpha2 = l->alpha * l->alpha;
+    float D = ggx_D(alpha2, v3_dot(l->N, H));
+    float common = D * 0.25f / cos_nv;
+    float G, G1v;
+    if (cl->blender == 3) {
+        /* 3.x: separable Smith, G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2)) = 1 / (1 + Lambda). */
+        G1v = 1.0f / (1.0f + ggx_lambda(alpha2, cos_nv));
+        G = G1v / (1.0f + ggx_lambda(alpha2, cos_nl));
+    } else {
+        /* 4.x: height-correlated Smith. */
+        float lv = ggx_lambda(alpha2, cos_nv), ll = ggx_lambda(alpha2, cos_nl);
+        G1v = 1.0f / (1.0f + lv);
+        G = 1.0f / (1.0f + lv + ll);
+    }
+    float F[3];
+    /* 3.x evaluates its Fresnel at dot(L, H), 4.x at dot(V, H): equal for reflection. */
+    lobe_fresnel(l, v3_dot(H, cl->V), F);
+    for (int c = 0; c < 3; c++)
+        f[c] = F[c] * common * G;
+    *pdf = common * G1v;
+}
 
 /* f * |cos| (without weight) and pdf of a microfacet lobe over its own hemisphere, as
  * if the geometric surface did not cut it; 0 if invalid or singular. */
@@ -313,32 +336,6 @@ static void microfacet_sampled_value(const closures *cl, const lobe *l, vec3 L, 
     if (l->singular || cos_nv <= 0.0f || cos_nl == 0.0f)
         return;
     microfacet_formula(cl, l, L, cos_nv, cos_nl, f, pdf);
-}
-
-static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float cos_nv,
-                               float cos_nl, float f[3], float *pdf)
-{
-    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
-    float alpha2 = l->alpha * l->alpha;
-    float D = ggx_D(alpha2, v3_dot(l->N, H));
-    float common = D * 0.25f / cos_nv;
-    float G, G1v;
-    if (cl->blender == 3) {
-        /* 3.x: separable Smith, G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2)) = 1 / (1 + Lambda). */
-        G1v = 1.0f / (1.0f + ggx_lambda(alpha2, cos_nv));
-        G = G1v / (1.0f + ggx_lambda(alpha2, cos_nl));
-    } else {
-        /* 4.x: height-correlated Smith. */
-        float lv = ggx_lambda(alpha2, cos_nv), ll = ggx_lambda(alpha2, cos_nl);
-        G1v = 1.0f / (1.0f + lv);
-        G = 1.0f / (1.0f + lv + ll);
-    }
-    float F[3];
-    /* 3.x evaluates its Fresnel at dot(L, H), 4.x at dot(V, H): equal for reflection. */
-    lobe_fresnel(l, v3_dot(H, cl->V), F);
-    for (int c = 0; c < 3; c++)
-        f[c] = F[c] * common * G;
-    *pdf = common * G1v;
 }
 
 /* The same, zero below Ng: the lobe as the BSDF has it. */
@@ -388,6 +385,14 @@ static bool microfacet_sample_direction(const closures *cl, const lobe *l, float
     float cos_hv = v3_dot(H, cl->V);
     *L = v3_sub(v3_scale(H, 2.0f * cos_hv), cl->V);
     return true;
+}
+
+/* Whether direction L lies below the hemisphere of lobe i, a microfacet lobe with a
+ * density: for a direction above Ng, the sampler-only region (microfacet_sampled_value). */
+static bool below_lobe_hemisphere(const closures *cl, int i, vec3 L)
+{
+    const lobe *l = &cl->lobe[i];
+    return i != LOBE_DIFFUSE && l->active && !l->singular && !(v3_dot(l->N, L) > 0.0f);
 }
 
 /* Samples a microfacet lobe's direction; false if none. As in Cycles, only a reflection
@@ -770,7 +775,7 @@ void principled_closure_sampled_eval(const closures *cl, const principled_sample
         return;
     const lobe *l = &cl->lobe[s->lobe];
     closures_eval(cl, s->raw, f_cos, pdf);
-    if (!l->singular && s->lobe != LOBE_DIFFUSE && !(v3_dot(l->N, s->raw) > 0.0f)) {
+    if (below_lobe_hemisphere(cl, s->lobe, s->raw)) {
         /* The sampler-only region: eval gave this lobe nothing (nor the others, which
          * share its normal); Cycles counts the sampled lobe's own value and density. */
         float f[3], p;
@@ -1067,9 +1072,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
     const bool diffuse_3x = cl->blender == 3 && cl->lobe[LOBE_DIFFUSE].active;
     bool sampler_only = false;
     for (int i = 0; above && i < N_LOBES; i++)
-        if (i != LOBE_DIFFUSE && cl->lobe[i].active && !cl->lobe[i].singular &&
-            !(v3_dot(cl->lobe[i].N, L) > 0.0f))
-            sampler_only = true;
+        sampler_only |= below_lobe_hemisphere(cl, i, L);
     if (above && !diffuse_3x && !sampler_only)
         return;
     /* The mixture density of that sampling, wherever L points. */
@@ -1089,7 +1092,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
         /* 4.x's diffuse table already includes the cut and the shadowing term; above Ng
          * only 3.x's diffuse differs from its uncut value. */
         if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4) ||
-            (above && i != LOBE_DIFFUSE && v3_dot(l->N, L) > 0.0f))
+            (above && i != LOBE_DIFFUSE && !below_lobe_hemisphere(cl, i, L)))
             continue;
         float f[3] = {0, 0, 0}, g[3], p;
         if (i == LOBE_DIFFUSE) {

@@ -109,8 +109,9 @@ int principled_closure_sample(const principled_closure *c, const float u[3], flo
  * for some directions (fast mode: those that find the light): the direction, then its
  * value. Same bits as principled_closure_sample(). `raw` is the chosen lobe's sampler's
  * direction wherever it points (principled_albedo_cut_estimate_shared() reuses it);
- * `usable` says it is the direction principled_closure_sample() returns (above Ng and
- * the lobe's own hemisphere); sampled_eval() gives zeros otherwise. */
+ * `usable` says it is the direction principled_closure_sample() returns (above Ng; as
+ * in Cycles, possibly below the lobe's own hemisphere, where eval() is 0 and
+ * sampled_eval() gives the sampled lobe's value); sampled_eval() gives zeros otherwise. */
 typedef struct principled_sampled {
     int lobe;   /* the lobe u[2] picked, -1 if none is active */
     int raw_ok; /* the lobe's sampler gave a direction */
