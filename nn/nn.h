@@ -177,6 +177,14 @@ int nn_npy_append(nn_npy_writer *w, const float *data, size_t rows, char *err, s
 int nn_npy_commit(nn_npy_writer *w, char *err, size_t errlen);
 void nn_npy_abort(nn_npy_writer *w);
 
+/* Read a 0-, 1- or 2-D C-order .npy array (format 1.0-3.0) of float16/32/64, signed or
+ * unsigned integers or bool, converted to float32: *data (malloc'd, caller frees) holds
+ * rows x cols floats (a 1-D array of n is n x 1, a scalar 1 x 1). The data section must be
+ * exactly the size the header claims, checked before anything is allocated. Returns 0,
+ * or -1 with a message naming the file (then *data is NULL). */
+int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, char *err,
+                    size_t errlen);
+
 #ifdef __cplusplus
 }
 #endif

@@ -278,6 +278,89 @@ static void test_npy_roundtrip(void **state)
     assert_non_null(strstr(err, "/nonexistent-dir/x.npy"));
 }
 
+/* Writes a .npy file with the given header dict and raw data bytes. */
+static void write_raw_npy(const char *path, const char *dict, const void *bytes, size_t n)
+{
+    char header[128];
+    int len = snprintf(header, sizeof header, "%s", dict);
+    size_t hlen = ((size_t)10 + (size_t)len + 1 + 63) / 64 * 64 - 10;
+    memset(header + len, ' ', hlen - 1 - (size_t)len);
+    header[hlen - 1] = '\n';
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    unsigned char pre[10] = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0, (unsigned char)hlen, 0};
+    fwrite(pre, 1, 10, f);
+    fwrite(header, 1, hlen, f);
+    fwrite(bytes, 1, n, f);
+    fclose(f);
+}
+
+static void test_npy_read(void **state)
+{
+    char path[] = "/tmp/test_nn_npy_read_XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    char err[256];
+    float *x;
+    size_t r, c;
+    /* Our own writer's output reads back bit for bit. */
+    float data[6] = {1, 2, 3, 4, 5, -6.5f};
+    assert_int_equal(nn_npy_write_f32(path, data, 2, 3, err, sizeof err), 0);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), 0);
+    assert_int_equal(r, 2);
+    assert_int_equal(c, 3);
+    assert_memory_equal(x, data, sizeof data);
+    free(x);
+    /* float64, int16 (negative), bool and float16 convert; 1-D is n x 1. */
+    double d[3] = {0.5, -2.0, 1e-3};
+    write_raw_npy(path, "{'descr': '<f8', 'fortran_order': False, 'shape': (3,), }", d, sizeof d);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), 0);
+    assert_int_equal(r, 3);
+    assert_int_equal(c, 1);
+    assert_true(x[0] == 0.5f && x[1] == -2.0f && x[2] == (float)1e-3);
+    free(x);
+    int16_t i16[2] = {-3, 300};
+    write_raw_npy(path, "{'descr': '<i2', 'fortran_order': False, 'shape': (1, 2), }", i16,
+                  sizeof i16);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), 0);
+    assert_true(x[0] == -3.0f && x[1] == 300.0f);
+    free(x);
+    unsigned char b[3] = {1, 0, 1};
+    write_raw_npy(path, "{'descr': '|b1', 'fortran_order': False, 'shape': (3,), }", b, 3);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), 0);
+    assert_true(x[0] == 1.0f && x[1] == 0.0f && x[2] == 1.0f);
+    free(x);
+    uint16_t h[3] = {0x3c00, 0xc000, 0x0001}; /* 1, -2, smallest subnormal */
+    write_raw_npy(path, "{'descr': '<f2', 'fortran_order': False, 'shape': (3,), }", h, 6);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), 0);
+    assert_true(x[0] == 1.0f && x[1] == -2.0f && x[2] == ldexpf(1.0f, -24));
+    free(x);
+    /* A header that claims more data than the file holds: an error, no allocation of
+     * the claim. */
+    write_raw_npy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (100000, 100000), }",
+                  data, sizeof data);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    assert_null(x);
+    assert_non_null(strstr(err, path));
+    assert_non_null(strstr(err, "header"));
+    write_raw_npy(path, "{'descr': '<c8', 'fortran_order': False, 'shape': (3,), }", data, 24);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "dtype"));
+    write_raw_npy(path, "{'descr': '<f4', 'fortran_order': True, 'shape': (2, 3), }", data, 24);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    write_raw_npy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 2, 3), }", data, 24);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    FILE *f = fopen(path, "wb");
+    fputs("not numpy", f);
+    fclose(f);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "magic"));
+    remove(path);
+    assert_int_equal(nn_npy_read_f32(path, &x, &r, &c, err, sizeof err), -1);
+    assert_non_null(strstr(err, "cannot open"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -290,6 +373,7 @@ int main(void)
         cmocka_unit_test(test_random_init),
         cmocka_unit_test(test_random_init_separates_textures),
         cmocka_unit_test(test_npy_roundtrip),
+        cmocka_unit_test(test_npy_read),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
