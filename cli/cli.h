@@ -10,6 +10,7 @@
 #define IMSYNTH_CLI_H
 
 #include <stdbool.h>
+#include <stddef.h>
 
 enum { EXIT_OK = 0, EXIT_FAILURE_WORK = 1, EXIT_USAGE = 2 };
 
@@ -21,6 +22,8 @@ int cmd_render(int argc, char **argv);
 int cmd_extract(int argc, char **argv);
 int cmd_export(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_datagen(int argc, char **argv);
+int cmd_dataset(int argc, char **argv);
 
 /* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
  * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in
@@ -32,12 +35,19 @@ typedef struct cli_graph_args {
     int blender;             /* SG_BLENDER_3 or SG_BLENDER_4 */
     const char *rest[32];
     int n_rest;
+    char graph_buf[1024]; /* the default graph's resolved path */
 } cli_graph_args;
 
 /* Returns EXIT_OK or EXIT_USAGE (after printing why). */
 int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga);
-/* Loads the graph and binds --params / --seed if given; NULL after printing why. */
-struct sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga);
+/* Loads the graph (the super-shader found by pipeline_find_data when none was given; then
+ * ga->graph_path is set to it) and binds --params / --seed if given; NULL after printing
+ * why. */
+struct sg_graph *cli_load_bound_graph(const char *sub, cli_graph_args *ga);
+/* `given` if not NULL, else data file `rel` found by pipeline_find_data (into buf); NULL
+ * after printing why. */
+const char *cli_data_path(const char *sub, const char *given, const char *rel, char *buf,
+                          size_t buflen);
 
 /* extract and export: load, bind, extract (unless export's --full), write -o. */
 int cli_write_material(const char *sub, int argc, char **argv, bool export_mode);

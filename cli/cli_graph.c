@@ -5,12 +5,13 @@
 #include <time.h>
 
 #include "cli/cli.h"
+#include "pipeline/pipeline.h"
 #include "shadergraph/shadergraph.h"
 
 int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga)
 {
     memset(ga, 0, sizeof *ga);
-    ga->graph_path = "assets/supershader.json";
+    ga->graph_path = NULL; /* the super-shader, found by cli_load_bound_graph */
     ga->blender = SG_BLENDER_4;
     ga->seed = -1;
     bool have_graph = false;
@@ -59,35 +60,29 @@ int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args 
     return EXIT_OK;
 }
 
-sg_graph *cli_load_bound_graph(const char *sub, const cli_graph_args *ga)
+const char *cli_data_path(const char *sub, const char *given, const char *rel, char *buf,
+                          size_t buflen)
 {
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(ga->graph_path, &err);
-    if (!g) {
-        cli_error(sub, "%s", err.msg);
+    if (given)
+        return given;
+    char err[1024];
+    if (pipeline_find_data(rel, buf, buflen, err, sizeof err)) {
+        cli_error(sub, "%s", err);
         return NULL;
     }
-    if (!ga->params_path && ga->seed < 0)
-        return g;
-    sg_params p;
-    if (sg_params_from_graph(g, &p, &err) < 0) {
-        cli_error(sub, "%s", err.msg);
-        sg_graph_free(g);
+    return buf;
+}
+
+sg_graph *cli_load_bound_graph(const char *sub, cli_graph_args *ga)
+{
+    ga->graph_path = cli_data_path(sub, ga->graph_path, "assets/supershader.json", ga->graph_buf,
+                                   sizeof ga->graph_buf);
+    if (!ga->graph_path)
         return NULL;
-    }
-    int rc = 0;
-    if (ga->params_path)
-        rc = sg_params_read_file(ga->params_path, &p, &err);
-    else
-        sg_params_sample(&p, (unsigned long long)ga->seed);
-    if (rc == 0)
-        rc = sg_graph_bind_params(g, &p, &err);
-    sg_params_free(&p);
-    if (rc < 0) {
-        cli_error(sub, "%s", err.msg);
-        sg_graph_free(g);
-        return NULL;
-    }
+    char err[1024];
+    sg_graph *g = pipeline_load_graph(ga->graph_path, ga->params_path, ga->seed, err, sizeof err);
+    if (!g)
+        cli_error(sub, "%s", err);
     return g;
 }
 

@@ -6,6 +6,7 @@
 
 #include "cli/cli.h"
 #include "imageio/imageio.h"
+#include "pipeline/pipeline.h"
 #include "render/render.h"
 #include "shadergraph/shadergraph.h"
 
@@ -34,7 +35,8 @@ static const char *const help =
     "  --threads N             worker threads (default: all cores); the image does not\n"
     "                          depend on it\n"
     "  --seed N                sampling seed (default 0)\n"
-    "  --scene SCENE.json      default assets/scene.json\n"
+    "  --scene SCENE.json      default assets/scene.json (installed, source tree, or\n"
+    "                          $IMSYNTH_DATA)\n"
     "  --float                 write a float EXR instead of half\n"
     "  --stats                 print timing and ray counts to stderr\n";
 
@@ -60,7 +62,7 @@ int cmd_render(int argc, char **argv)
         return EXIT_OK;
     }
     const char *graph_path = NULL, *out_path = NULL, *png_path = NULL, *params_path = NULL;
-    const char *scene_path = "assets/scene.json";
+    const char *scene_path = NULL;
     int want_float = 0, want_stats = 0, spp_given = 0;
     render_options o;
     render_options_default(&o);
@@ -156,32 +158,19 @@ int cmd_render(int argc, char **argv)
     if (!spp_given && o.mode == RENDER_REFERENCE)
         o.spp = 256;
 
-    sg_error e;
-    sg_graph *g = sg_graph_load_file(graph_path, &e);
+    char err[1024], scene_buf[1024];
+    if (!(scene_path = cli_data_path(sub, scene_path, "assets/scene.json", scene_buf,
+                                     sizeof scene_buf)))
+        return EXIT_FAILURE_WORK;
+    sg_graph *g = pipeline_load_graph(graph_path, params_path, -1, err, sizeof err);
     if (!g) {
-        cli_error(sub, "%s", e.msg);
+        cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }
-    if (params_path) {
-        sg_params p;
-        if (sg_params_from_graph(g, &p, &e) < 0 || sg_params_read_file(params_path, &p, &e) < 0) {
-            cli_error(sub, "%s", e.msg);
-            sg_graph_free(g);
-            return EXIT_FAILURE_WORK;
-        }
-        int rc = sg_graph_bind_params(g, &p, &e);
-        sg_params_free(&p);
-        if (rc < 0) {
-            cli_error(sub, "%s", e.msg);
-            sg_graph_free(g);
-            return EXIT_FAILURE_WORK;
-        }
-    }
-    char err[1024];
-    render_material *m = render_material_new(g, o.blender, err, sizeof err);
+    render_material *m = pipeline_render_material(g, graph_path, o.blender, err, sizeof err);
     sg_graph_free(g);
     if (!m) {
-        cli_error(sub, "%s: %s", graph_path, err);
+        cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }
     render_scene *s = render_scene_load(scene_path, err, sizeof err);

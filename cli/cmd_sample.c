@@ -20,7 +20,8 @@ static const char *const help =
     "  --seed N               frame number, an integer in [0, 2^64) (required)\n"
     "  -o, --output P.json    write the parameters here (atomically) instead of stdout\n"
     "  --graph GRAPH.json     the super-shader whose parameters to sample\n"
-    "                         (default assets/supershader.json)\n"
+    "                         (default: assets/supershader.json of the installation,\n"
+    "                         the source tree, or $IMSYNTH_DATA)\n"
     "  --bound-graph OUT.json also write GRAPH with these parameters bound (its\n"
     "                         RandomValues group set), ready for eval-graph or Blender\n";
 
@@ -31,7 +32,7 @@ int cmd_sample(int argc, char **argv)
         fputs(help, stdout);
         return EXIT_OK;
     }
-    const char *graph_path = "assets/supershader.json", *out_path = NULL, *bound_path = NULL;
+    const char *graph_path = NULL, *out_path = NULL, *bound_path = NULL;
     const char *seed_arg = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -71,6 +72,10 @@ int cmd_sample(int argc, char **argv)
     }
 
     sg_error err;
+    char graph_buf[1024];
+    if (!(graph_path = cli_data_path(sub, graph_path, "assets/supershader.json", graph_buf,
+                                     sizeof graph_buf)))
+        return EXIT_FAILURE_WORK;
     sg_graph *g = sg_graph_load_file(graph_path, &err);
     if (!g) {
         cli_error(sub, "%s", err.msg);

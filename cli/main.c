@@ -18,9 +18,9 @@ static const subcommand subcommands[] = {
     {"extract", cmd_extract, "the sub-shader of a super-shader for one parameter set"},
     {"export", cmd_export, "a material (sub-shader by default) for blender/import_material.py"},
     {"compare", cmd_compare, "RMSE, bias and worst block of an image against a reference"},
-#ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
-#endif
+    {"datagen", cmd_datagen, "make a training dataset: sample, render, describe, store (resumable)"},
+    {"dataset", cmd_dataset, "inspect, merge, export or view a dataset (info|merge|export|sheet)"},
 };
 
 void cli_error(const char *sub, const char *fmt, ...)

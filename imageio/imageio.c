@@ -598,18 +598,19 @@ int image_exr_get_string(const char *path, const char *name, char *value, size_t
  * PNG writing
  */
 
-int image_write_png(const char *path, const image *img, char *err, size_t errlen)
+/* 8-bit sRGB (for people) or 16-bit linear (lossless enough to be a dataset's ground truth). */
+static int write_png(const char *path, const image *img, int bits16, char *err, size_t errlen)
 {
     if (check_writable_image(path, img, err, errlen) != 0)
         return -1;
     size_t nvalues = (size_t)img->width * (size_t)img->height * (size_t)img->channels;
-    uint8_t *bytes = malloc(nvalues);
-    if (!bytes) {
+    void *buf = malloc(nvalues * (bits16 ? 2 : 1));
+    if (!buf) {
         set_error(err, errlen, "%s: out of memory", path);
         return -1;
     }
-    /* Clamp, encode colour (not alpha), round to nearest. NaN fails both comparisons and
-     * would reach the cast, which is undefined: it is mapped to 0 first. */
+    /* Clamp, encode colour (not alpha; never in 16-bit linear), round to nearest. NaN fails
+     * both comparisons and would reach the cast, which is undefined: it is mapped to 0 first. */
     int alpha = img->channels == 4 ? 3 : -1;
     for (size_t i = 0; i < nvalues; i++) {
         float v = img->pixels[i];
@@ -617,24 +618,39 @@ int image_write_png(const char *path, const image *img, char *err, size_t errlen
             v = 0.0f;
         if (v > 1.0f)
             v = 1.0f;
-        if ((int)(i % (size_t)img->channels) != alpha)
-            v = linear_to_srgb(v);
-        bytes[i] = (uint8_t)(v * 255.0f + 0.5f);
+        if (bits16)
+            ((uint16_t *)buf)[i] = (uint16_t)(v * 65535.0f + 0.5f);
+        else {
+            if ((int)(i % (size_t)img->channels) != alpha)
+                v = linear_to_srgb(v);
+            ((uint8_t *)buf)[i] = (uint8_t)(v * 255.0f + 0.5f);
+        }
     }
     char tmp[PATH_MAX];
     if (create_temp_beside(path, tmp, sizeof tmp, err, errlen) != 0) {
-        free(bytes);
+        free(buf);
         return -1;
     }
     char msg[512];
-    int rv = oiio_write_png8(tmp, img->width, img->height, img->channels, bytes, msg, sizeof msg);
-    free(bytes);
+    int rv = oiio_write_png(tmp, img->width, img->height, img->channels, bits16 ? 16 : 8,
+                            bits16, buf, msg, sizeof msg);
+    free(buf);
     if (rv != 0) {
         set_error(err, errlen, "%s: cannot write PNG: %s", path, msg);
         unlink(tmp);
         return -1;
     }
     return commit_temp(tmp, path, err, errlen);
+}
+
+int image_write_png(const char *path, const image *img, char *err, size_t errlen)
+{
+    return write_png(path, img, 0, err, errlen);
+}
+
+int image_write_png16_linear(const char *path, const image *img, char *err, size_t errlen)
+{
+    return write_png(path, img, 1, err, errlen);
 }
 
 /* ---------------------------------------------------------------------------------------

@@ -72,6 +72,11 @@ int image_exr_get_string(const char *path, const char *name, char *value, size_t
  * encoded; NaN written as 0). Returns 0 or -1. */
 int image_write_png(const char *path, const image *img, char *err, size_t errlen);
 
+/* 16-bit linear PNG (values clamped to [0,1], not encoded, rounded to 1/65535; NaN as 0),
+ * tagged linear (gAMA 1.0) so image_read returns the same linear values to 8e-6.
+ * Lossless storage for renders whose values lie in [0, 1]. Returns 0 or -1. */
+int image_write_png16_linear(const char *path, const image *img, char *err, size_t errlen);
+
 /* Resample to width x height with a separable triangle (tent) filter whose support
  * widens with the scale factor when shrinking (area-correct), bilinear when enlarging.
  * Pixel centres map to pixel centres with the image edges aligned; taps outside the image

@@ -151,8 +151,9 @@ extern "C" void oiio_reader_close(oiio_reader *reader)
     delete reader;
 }
 
-extern "C" int oiio_write_png8(const char *path, int width, int height, int channels,
-                               const uint8_t *pixels, char *err, size_t errlen)
+extern "C" int oiio_write_png(const char *path, int width, int height, int channels,
+                              int bits, int linear, const void *pixels, char *err,
+                              size_t errlen)
 {
     try {
         /* Created by format name, not by path: the caller's temporary file name does not
@@ -162,8 +163,15 @@ extern "C" int oiio_write_png8(const char *path, int width, int height, int chan
             set_error(err, errlen, pending_errors("no PNG writer in OpenImageIO"));
             return -1;
         }
-        ImageSpec spec(width, height, channels, TypeDesc::UINT8);
-        spec.attribute("oiio:ColorSpace", "sRGB");
+        TypeDesc type = bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8;
+        ImageSpec spec(width, height, channels, type);
+        if (linear) {
+            /* OIIO writes gAMA 1.0 for this, which our reader (and others) take as linear. */
+            spec.attribute("oiio:ColorSpace", "Linear");
+            spec.attribute("oiio:Gamma", 1.0f);
+        } else {
+            spec.attribute("oiio:ColorSpace", "sRGB");
+        }
         if (channels == 4)
             spec.alpha_channel = 3;
         /* The pixels are already unassociated (straight) alpha: do not divide them. */
@@ -172,7 +180,7 @@ extern "C" int oiio_write_png8(const char *path, int width, int height, int chan
             set_error(err, errlen, pending_errors(out->geterror()));
             return -1;
         }
-        bool ok = out->write_image(TypeDesc::UINT8, pixels);
+        bool ok = out->write_image(type, pixels);
         std::string msg = out->geterror();
         bool closed = out->close();
         if (msg.empty())

@@ -43,10 +43,11 @@ int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pix
 
 void oiio_reader_close(oiio_reader *reader);
 
-/* Write an 8-bit PNG of width x height x channels (1, 3 or 4) bytes, tagged sRGB, to path
- * exactly (no temporary file: the caller provides one). Returns 0, or -1 with a message. */
-int oiio_write_png8(const char *path, int width, int height, int channels, const uint8_t *pixels,
-                    char *err, size_t errlen);
+/* Write a PNG of width x height x channels (1, 3 or 4) values of `bits` (8: uint8_t,
+ * 16: uint16_t), tagged sRGB, or linear (gAMA 1.0) when `linear`, to path exactly (no
+ * temporary file: the caller provides one). Returns 0, or -1 with a message. */
+int oiio_write_png(const char *path, int width, int height, int channels, int bits, int linear,
+                   const void *pixels, char *err, size_t errlen);
 
 #ifdef __cplusplus
 }

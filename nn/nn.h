@@ -174,8 +174,18 @@ typedef struct nn_npy_writer nn_npy_writer;
 nn_npy_writer *nn_npy_begin(const char *path, size_t rows, size_t cols, char *err,
                             size_t errlen);
 int nn_npy_append(nn_npy_writer *w, const float *data, size_t rows, char *err, size_t errlen);
+/* The same for any dtype: descr is NumPy's ("<i8", "|u1", "<f2", ...), itemsize its bytes;
+ * append_raw takes rows x cols items as they lie in memory (little-endian). */
+nn_npy_writer *nn_npy_begin_dtype(const char *path, const char *descr, size_t itemsize,
+                                  size_t rows, size_t cols, char *err, size_t errlen);
+int nn_npy_append_raw(nn_npy_writer *w, const void *data, size_t rows, char *err,
+                      size_t errlen);
 int nn_npy_commit(nn_npy_writer *w, char *err, size_t errlen);
 void nn_npy_abort(nn_npy_writer *w);
+
+/* IEEE binary16 <-> float: round to nearest even, overflow to infinity, NaN kept. */
+uint16_t nn_float_to_half(float f);
+float nn_half_to_float(uint16_t h);
 
 /* Read a 0-, 1- or 2-D C-order .npy array (format 1.0-3.0) of float16/32/64, signed or
  * unsigned integers or bool, converted to float32: *data (malloc'd, caller frees) holds

@@ -13,7 +13,7 @@
 struct nn_npy_writer {
     FILE *f;
     char *path, *tmp;
-    size_t rows, cols, written;
+    size_t rows, cols, written, itemsize;
 };
 
 static void set_err(char *err, size_t errlen, const char *fmt, ...)
@@ -42,10 +42,16 @@ void nn_npy_abort(nn_npy_writer *w)
 nn_npy_writer *nn_npy_begin(const char *path, size_t rows, size_t cols, char *err,
                             size_t errlen)
 {
+    return nn_npy_begin_dtype(path, "<f4", 4, rows, cols, err, errlen);
+}
+
+nn_npy_writer *nn_npy_begin_dtype(const char *path, const char *descr, size_t itemsize,
+                                  size_t rows, size_t cols, char *err, size_t errlen)
+{
     char header[256];
     int len = snprintf(header, sizeof header,
-                       "{'descr': '<f4', 'fortran_order': False, 'shape': (%zu, %zu), }", rows,
-                       cols);
+                       "{'descr': '%s', 'fortran_order': False, 'shape': (%zu, %zu), }", descr,
+                       rows, cols);
     /* 10 bytes of preamble + header + padding + '\n' is a multiple of 64. */
     size_t hlen = ((size_t)10 + (size_t)len + 1 + 63) / 64 * 64 - 10;
     memset(header + len, ' ', hlen - 1 - (size_t)len);
@@ -64,6 +70,7 @@ nn_npy_writer *nn_npy_begin(const char *path, size_t rows, size_t cols, char *er
     snprintf(w->tmp, tlen, "%s.tmp.%ld", path, (long)getpid());
     w->rows = rows;
     w->cols = cols;
+    w->itemsize = itemsize;
     w->f = fopen(w->tmp, "wb");
     if (!w->f) {
         set_err(err, errlen, "%s: cannot create: %s", w->tmp, strerror(errno));
@@ -84,14 +91,20 @@ nn_npy_writer *nn_npy_begin(const char *path, size_t rows, size_t cols, char *er
 
 int nn_npy_append(nn_npy_writer *w, const float *data, size_t rows, char *err, size_t errlen)
 {
+    return nn_npy_append_raw(w, data, rows, err, errlen);
+}
+
+int nn_npy_append_raw(nn_npy_writer *w, const void *data, size_t rows, char *err,
+                      size_t errlen)
+{
     if (w->written + rows > w->rows) {
         set_err(err, errlen, "%s: %zu rows appended to an array of %zu", w->path,
                 w->written + rows, w->rows);
         return -1;
     }
-    /* The data is written as it lies in memory: '<f4' holds on the little-endian
+    /* The data is written as it lies in memory: '<' (little-endian) holds on the
      * machines this project targets. */
-    if (fwrite(data, sizeof(float), rows * w->cols, w->f) != rows * w->cols) {
+    if (fwrite(data, w->itemsize, rows * w->cols, w->f) != rows * w->cols) {
         set_err(err, errlen, "%s: write failed: %s", w->tmp, strerror(errno));
         return -1;
     }
@@ -138,22 +151,46 @@ int nn_npy_write_f32(const char *path, const float *data, size_t rows, size_t co
 /* The dtypes a reader accepts, all little-endian (or byte-sized), converted to float. */
 typedef enum npy_kind { NPY_F4, NPY_F8, NPY_F2, NPY_I, NPY_U, NPY_BOOL } npy_kind;
 
-static float half_to_float(uint16_t h)
+uint16_t nn_float_to_half(float f)
+{
+    uint32_t x;
+    memcpy(&x, &f, 4);
+    uint32_t sign = (x >> 16) & 0x8000u, e = (x >> 23) & 0xffu, man = x & 0x7fffffu;
+    if (e == 0xff) /* inf, nan (keep nan a nan) */
+        return (uint16_t)(sign | 0x7c00u | (man ? 0x200u : 0));
+    int exp = (int)e - 127 + 15;
+    if (exp >= 31)
+        return (uint16_t)(sign | 0x7c00u);
+    if (exp <= 0) { /* subnormal half or zero */
+        if (exp < -10)
+            return (uint16_t)sign;
+        man |= 0x800000u;
+        int shift = 14 - exp;
+        uint32_t h = man >> shift, rem = man & ((1u << shift) - 1), half = 1u << (shift - 1);
+        if (rem > half || (rem == half && (h & 1)))
+            h++;
+        return (uint16_t)(sign | h);
+    }
+    uint32_t h = ((uint32_t)exp << 10) | (man >> 13), rem = man & 0x1fffu;
+    if (rem > 0x1000u || (rem == 0x1000u && (h & 1)))
+        h++; /* may carry into the exponent, and up to infinity: both correct */
+    return (uint16_t)(sign | h);
+}
+
+float nn_half_to_float(uint16_t h)
 {
     uint32_t sign = (uint32_t)(h >> 15) << 31, exp = (h >> 10) & 31u, man = h & 1023u, bits;
-    if (exp == 31)
-        bits = sign | 0x7f800000u | (man << 13);
-    else if (exp)
-        bits = sign | ((exp + 112u) << 23) | (man << 13);
-    else if (!man)
-        bits = sign;
-    else { /* subnormal half: normalise */
-        int e = -1;
-        do {
-            e++;
-            man <<= 1;
-        } while (!(man & 1024u));
-        bits = sign | ((uint32_t)(112 - e) << 23) | ((man & 1023u) << 13);
+    if (exp == 0) {
+        if (man == 0) {
+            bits = sign;
+        } else { /* subnormal: exactly man * 2^-24 */
+            float v = (float)man * 0x1p-24f;
+            return sign ? -v : v;
+        }
+    } else if (exp == 31) {
+        bits = sign | 0x7f800000u | man << 13;
+    } else {
+        bits = sign | (exp + 112) << 23 | man << 13;
     }
     float f;
     memcpy(&f, &bits, 4);
@@ -310,7 +347,7 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
         } else if (kind == NPY_F2) {
             uint16_t h;
             memcpy(&h, q, 2);
-            out[i] = half_to_float(h);
+            out[i] = nn_half_to_float(h);
         } else if (kind == NPY_BOOL)
             out[i] = q[0] ? 1.0f : 0.0f;
         else {

@@ -274,27 +274,6 @@ int nn_safetensors_find(const nn_safetensors *st, const char *name)
     return -1;
 }
 
-static float half_to_float(uint16_t h)
-{
-    uint32_t sign = (uint32_t)(h >> 15) << 31, exp = (h >> 10) & 31, man = h & 1023;
-    uint32_t bits;
-    if (exp == 0) {
-        if (man == 0) {
-            bits = sign;
-        } else { /* subnormal: exact as man * 2^-24 */
-            float v = (float)man * 0x1p-24f;
-            return sign ? -v : v;
-        }
-    } else if (exp == 31) {
-        bits = sign | 0x7f800000u | man << 13;
-    } else {
-        bits = sign | (exp + 112) << 23 | man << 13;
-    }
-    float f;
-    memcpy(&f, &bits, 4);
-    return f;
-}
-
 int nn_safetensors_read_f32(const nn_safetensors *st, const char *name, int ndim,
                             const int64_t *shape, float *out, char *err, size_t errlen)
 {
@@ -330,7 +309,7 @@ int nn_safetensors_read_f32(const nn_safetensors *st, const char *name, int ndim
             memcpy(&out[k], &bits, 4);
             break;
         case NN_F16:
-            out[k] = half_to_float((uint16_t)(p[2 * k] | p[2 * k + 1] << 8));
+            out[k] = nn_half_to_float((uint16_t)(p[2 * k] | p[2 * k + 1] << 8));
             break;
         case NN_BF16:
             bits = ((uint32_t)p[2 * k] | (uint32_t)p[2 * k + 1] << 8) << 16;

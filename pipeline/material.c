@@ -1,0 +1,127 @@
+/* Load -> bind -> extract -> compile: the sequence every command that renders shares. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline/pipeline_internal.h"
+
+sg_graph *pipeline_load_graph(const char *graph_path, const char *params_path, long long seed,
+                              char *err, size_t errlen)
+{
+    sg_error e;
+    sg_graph *g = sg_graph_load_file(graph_path, &e);
+    if (!g) {
+        pipeline_error(err, errlen, "%s", e.msg);
+        return NULL;
+    }
+    if (!params_path && seed < 0)
+        return g;
+    sg_params p;
+    if (sg_params_from_graph(g, &p, &e) < 0) {
+        pipeline_error(err, errlen, "%s: %s", graph_path, e.msg);
+        sg_graph_free(g);
+        return NULL;
+    }
+    int rc = 0;
+    if (params_path)
+        rc = sg_params_read_file(params_path, &p, &e);
+    else
+        sg_params_sample(&p, (unsigned long long)seed);
+    if (rc == 0)
+        rc = sg_graph_bind_params(g, &p, &e);
+    sg_params_free(&p);
+    if (rc < 0) {
+        pipeline_error(err, errlen, "%s", e.msg);
+        sg_graph_free(g);
+        return NULL;
+    }
+    return g;
+}
+
+render_material *pipeline_render_material(const sg_graph *g, const char *graph_path,
+                                          int blender, char *err, size_t errlen)
+{
+    char msg[1024];
+    render_material *m = render_material_new(g, blender, msg, sizeof msg);
+    if (!m)
+        pipeline_error(err, errlen, "%s: %s", graph_path, msg);
+    return m;
+}
+
+/* The extracted sub-shader of g as JSON text (what "unchanged" is judged by). */
+static char *subshader_json(const sg_graph *g, int blender, int *nodes, char *err,
+                            size_t errlen)
+{
+    sg_extract_options opt = {.blender = blender == 3 ? SG_BLENDER_3 : SG_BLENDER_4};
+    sg_error e;
+    sg_graph *x = sg_extract(g, &opt, &e);
+    if (!x) {
+        pipeline_error(err, errlen, "extracting the sub-shader: %s", e.msg);
+        return NULL;
+    }
+    if (nodes)
+        *nodes = sg_graph_node_count(x);
+    char *json = sg_graph_to_json(x);
+    sg_graph_free(x);
+    if (!json)
+        pipeline_error(err, errlen, "out of memory");
+    return json;
+}
+
+/* Binds p with parameter k set to v, extracts, and says whether the sub-shader differs
+ * from `base`: 1 differs, 0 same, -1 error. */
+static int differs_with(sg_graph *g, sg_params *p, int k, float v, const char *base,
+                        int blender, char *err, size_t errlen)
+{
+    float keep = p->values[k];
+    p->values[k] = v;
+    sg_error e;
+    int rc = sg_graph_bind_params(g, p, &e);
+    p->values[k] = keep;
+    if (rc < 0)
+        return pipeline_error(err, errlen, "%s", e.msg);
+    char *json = subshader_json(g, blender, NULL, err, errlen);
+    if (!json)
+        return -1;
+    int d = strcmp(json, base) != 0;
+    free(json);
+    return d;
+}
+
+int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subshader_nodes,
+                           char *err, size_t errlen)
+{
+    sg_params p;
+    sg_error e;
+    if (sg_params_from_graph(g, &p, &e) < 0)
+        return pipeline_error(err, errlen, "%s", e.msg);
+    char *base = subshader_json(g, blender, subshader_nodes, err, errlen);
+    int rc = base ? 0 : -1;
+    for (int k = 0; rc == 0 && k < p.n; k++) {
+        int choices = sg_param_mult_choices(p.names[k]);
+        int d = 0;
+        if (choices >= 2) {
+            int mine = (int)floorf(p.values[k] * (float)choices);
+            if (mine > choices - 1)
+                mine = choices - 1;
+            for (int c = 0; c < choices && d == 0; c++)
+                if (c != mine)
+                    d = differs_with(g, &p, k, ((float)c + 0.5f) / (float)choices, base,
+                                     blender, err, errlen);
+        } else {
+            float v = p.values[k] + 0.5f;
+            v = roundf((v >= 1.0f ? v - 1.0f : v) * 1000.0f) / 1000.0f;
+            d = differs_with(g, &p, k, v, base, blender, err, errlen);
+        }
+        if (d < 0)
+            rc = -1;
+        else
+            active[k] = (uint8_t)d;
+    }
+    /* Put g back as it came. */
+    if (sg_graph_bind_params(g, &p, &e) < 0 && rc == 0)
+        rc = pipeline_error(err, errlen, "%s", e.msg);
+    free(base);
+    sg_params_free(&p);
+    return rc;
+}

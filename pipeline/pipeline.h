@@ -1,0 +1,195 @@
+/*
+ * pipeline: the in-process glue every user-facing command shares.
+ *
+ *   finding data   pipeline_find_data("assets/supershader.json", ...) wherever imsynth runs
+ *   material       load -> bind parameters -> (extract) -> compile for the renderer
+ *   active mask    which parameters the extracted sub-shader depends on
+ *   datagen        sample -> extract -> render -> describe -> store, resumable and sharded
+ *   dataset        the SQLite store: open, info, merge, export, contact sheet
+ *
+ * Dependencies: pipeline uses render, nn, imageio and shadergraph; nothing below it knows
+ * pipeline exists. Every call that can fail takes (err, errlen) and writes a message
+ * naming the file and the place.
+ */
+#ifndef IMSYNTH_PIPELINE_H
+#define IMSYNTH_PIPELINE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "imageio/imageio.h"
+#include "render/render.h"
+#include "shadergraph/shadergraph.h"
+
+/* ---------------------------------------------------------------- finding data ----- */
+
+/* Resolves a data file named relative to the source tree ("assets/supershader.json",
+ * "assets/scene.json", "blender/import_material.py") to a path that exists, trying in
+ * order:
+ *   1. the directory in $IMSYNTH_DATA (a source tree or an installed share/imsynth);
+ *   2. <directory of the executable>/../share/imsynth (what `cmake --install` lays out);
+ *   3. the source tree the executable was built from (build trees);
+ *   4. the current directory.
+ * A path that is absolute, or starts with "./" or "../", is taken as it is. Returns 0 with
+ * the path in out, or -1 with a message listing the places tried. */
+int pipeline_find_data(const char *rel, char *out, size_t outlen, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- material --------- */
+
+/* Loads a graph and, if asked, binds a parameter file (params_path) or frame `seed`'s
+ * parameters (seed >= 0); both NULL/-1 leaves the graph's own values. NULL on error. */
+sg_graph *pipeline_load_graph(const char *graph_path, const char *params_path, long long seed,
+                              char *err, size_t errlen);
+
+/* The renderer's view of a (bound) graph; NULL with a message naming graph_path. */
+render_material *pipeline_render_material(const sg_graph *g, const char *graph_path,
+                                          int blender, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- active mask ------ */
+
+/* Which parameters of the bound graph g the sub-shader depends on. Parameter k is active
+ * when setting it alone to another value changes the extracted sub-shader (its JSON,
+ * constants included): for a value parameter, v -> v + 0.5 (mod 1, 3 decimals); for a
+ * "Mult N" selector, any other of its N choices (bin centres). An inactive parameter is
+ * folded away (a factor of zero, an unselected branch), so it provably does not affect
+ * the image. g's parameters are restored before returning.
+ * active[k] is 0 or 1 for the k-th parameter of g (sg_params_from_graph order).
+ * *subshader_nodes receives the extracted sub-shader's node count (may be NULL).
+ * Returns 0, or -1 with a message. */
+int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subshader_nodes,
+                           char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- hashing ---------- */
+
+/* SHA-256 (FIPS 180-4) of data, as 64 lowercase hex digits and a NUL. */
+void pipeline_sha256_hex(const void *data, size_t len, char out[65]);
+
+/* ---------------------------------------------------------------- datagen ---------- */
+
+/* A render preset: how datagen renders (fast mode, fixed shading points unless adaptive).
+ * Presets are named so that a dataset's config says exactly how it was made. */
+typedef struct datagen_preset {
+    const char *name;
+    int spp, max_spp, light_samples;
+    float noise_target;
+} datagen_preset;
+
+/* The preset named `name` ("draft", "datagen" (default), "converged"), or NULL. */
+const datagen_preset *datagen_preset_find(const char *name);
+/* Comma-separated list of preset names, for messages and --help. */
+const char *datagen_preset_names(void);
+
+typedef enum datagen_images { DATAGEN_IMAGES_NONE, DATAGEN_IMAGES_PNG16, DATAGEN_IMAGES_EXR } datagen_images;
+typedef enum datagen_descriptor { DATAGEN_DESC_NONE, DATAGEN_DESC_VGG19_F16 } datagen_descriptor;
+
+/* Augmentation: extra views of every sample (same parameters, another image). Parsed from
+ * a spec "views=K,light=J,flash=F,exposure=E,wb=W" (datagen_augment_parse):
+ *   views     extra views per sample (0: none; view 0 is always the plain scene)
+ *   light     light position jitter, metres (uniform in a cube of that half-size)
+ *   flash     probability that an extra view uses the flash scene (light at the camera)
+ *   exposure  exposure jitter in stops (uniform in [-E, E])
+ *   wb        white-balance jitter: each of R and B scaled by 2^u, u uniform in [-W, W] */
+typedef struct datagen_augment {
+    int views;
+    float light, flash, exposure, wb;
+} datagen_augment;
+
+/* Parses spec into a (all zero when spec is NULL or ""). -1 with a message on error. */
+int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_t errlen);
+
+typedef struct datagen_options {
+    const char *out_path;      /* the dataset file (created if missing) */
+    const char *graph_path;    /* super-shader; NULL: found with pipeline_find_data */
+    const char *scene_path;    /* NULL: assets/scene.json found likewise */
+    const char *flash_scene_path; /* NULL: assets/scene-flash.json found likewise */
+    long long first_id, count; /* ids [first_id, first_id + count) ... */
+    int shard_index, shard_count; /* ... with id % shard_count == shard_index */
+    int threads;               /* worker threads (0 = online CPUs); never changes a byte */
+    int blender;               /* 4 or 3 */
+    const datagen_preset *preset;
+    datagen_augment augment;
+    datagen_images images;
+    datagen_descriptor descriptor;
+    int batch;                 /* samples per transaction (0 = 4 x threads) */
+    /* Progress: called after every committed batch with counts and seconds spent so far
+     * (summed over workers) in each stage. May be NULL. */
+    void (*progress)(void *ctx, long long done, long long todo, const double stage_seconds[5]);
+    void *progress_ctx;
+    /* Polled between batches: non-zero stops cleanly after the current batch (SIGINT). */
+    volatile int *stop;
+} datagen_options;
+
+/* Names of the stages timed in stage_seconds: sample+bind, extract (active mask), render,
+ * describe, store. */
+extern const char *const datagen_stage_names[5];
+
+/* Runs datagen: every id of the range and shard that the dataset lacks is made and
+ * stored, in batches of one transaction each. A sample's bytes are a pure function of
+ * (id, config): the thread count, the shard split and interruptions never change them.
+ * Opening an existing dataset made with another config is an error. *made (may be NULL)
+ * receives the number of samples stored by this run. Returns 0, 1 when stopped through
+ * `stop`, or -1 with a message. */
+int datagen_run(const datagen_options *o, long long *made, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- dataset ---------- */
+
+typedef struct dataset dataset;
+
+/* Opens an existing dataset read-only (checks the schema version). NULL on error. */
+dataset *dataset_open(const char *path, char *err, size_t errlen);
+void dataset_close(dataset *d);
+
+typedef struct dataset_info {
+    long long samples, rows;   /* distinct ids, rows (ids x views) */
+    long long min_id, max_id;
+    int n_params;
+    size_t descriptor_size;    /* floats per row's descriptor (0: none stored) */
+    long long file_bytes;
+    char config_hash[65];
+    char *config_json;         /* malloc'd; the config table's JSON */
+} dataset_info;
+
+int dataset_get_info(dataset *d, dataset_info *info, char *err, size_t errlen);
+void dataset_info_free(dataset_info *info);
+
+/* Parameter names in storage order (n_params of them; owned by d). */
+const char *const *dataset_param_names(const dataset *d);
+
+/* Streams rows in (id, view) order. Each call fills one row; returns 1 while rows come, 0 at
+ * the end, -1 on error. The row's arrays are owned by the iterator (valid until the next
+ * call). Descriptors are decoded to float (NULL when none stored); images are decoded only
+ * when want_image. */
+typedef struct dataset_row {
+    long long id;
+    int view;
+    const float *params;       /* n_params */
+    const uint8_t *active;     /* n_params */
+    const float *descriptor;   /* descriptor_size, or NULL */
+    const char *view_json;     /* the view's scene settings */
+    int subshader_nodes;
+    image img;                 /* only with want_image; zero otherwise */
+} dataset_row;
+
+typedef struct dataset_iter dataset_iter;
+dataset_iter *dataset_iter_new(dataset *d, int want_descriptor, int want_image, char *err,
+                               size_t errlen);
+int dataset_iter_next(dataset_iter *it, dataset_row *row, char *err, size_t errlen);
+void dataset_iter_free(dataset_iter *it);
+
+/* Merges datasets made with the same config into out_path (written to a temporary file
+ * and renamed). A config mismatch or an id present in two inputs is an error naming both
+ * files. */
+int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path, char *err,
+                  size_t errlen);
+
+/* Writes ids.npy (int64), params.npy (float32, rows x n_params), active.npy (uint8),
+ * views.npy (int32), descriptors.npy (float16, when stored) and params.txt (names) into
+ * dir (created if missing), each atomically. */
+int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen);
+
+/* A contact sheet PNG of the first `count` rows' renders (`cols` per row of the sheet),
+ * each labelled with its id (and view when > 0). */
+int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols, int tile,
+                          char *err, size_t errlen);
+
+#endif
