@@ -7,13 +7,14 @@
 #include "pipeline/pipeline.h"
 
 static const char *const help =
-    "usage: imsynth dataset info DS.sqlite [--json]\n"
+    "usage: imsynth dataset info DS.sqlite [--json] [--digest]\n"
     "       imsynth dataset merge A.sqlite B.sqlite ... -o ALL.sqlite\n"
     "       imsynth dataset export DS.sqlite --npy DIR\n"
     "       imsynth dataset sheet DS.sqlite -o SHEET.png [--count N] [--cols C] [--tile PX]\n"
     "\n"
     "info    samples, rows (samples x views), id range, parameters, descriptor size, size\n"
-    "        on disk, the config and its hash\n"
+    "        on disk, the config and its hash; --digest adds a SHA-256 of every row's\n"
+    "        contents (equal digests: the same samples, byte for byte)\n"
     "merge   the union of datasets made with the same config (shards); refuses mismatched\n"
     "        configs and ids present twice; written atomically\n"
     "export  ids.npy (int64), views.npy (int32), params.npy (float32), active.npy (uint8),\n"
@@ -29,10 +30,12 @@ static const char *const help =
 static int info(const char *sub, int argc, char **argv)
 {
     const char *path = NULL;
-    int json = 0;
+    int json = 0, digest = 0;
     for (int i = 0; i < argc; i++) {
         if (!strcmp(argv[i], "--json"))
             json = 1;
+        else if (!strcmp(argv[i], "--digest"))
+            digest = 1;
         else if (argv[i][0] != '-' && !path)
             path = argv[i];
         else {
@@ -52,11 +55,18 @@ static int info(const char *sub, int argc, char **argv)
         dataset_close(d);
         return EXIT_FAILURE_WORK;
     }
+    char sum[65] = "";
+    if (digest && dataset_digest(d, sum, err, sizeof err)) {
+        cli_error(sub, "%s", err);
+        dataset_info_free(&in);
+        dataset_close(d);
+        return EXIT_FAILURE_WORK;
+    }
     if (json)
-        printf("{\"path\": \"%s\", \"samples\": %lld, \"rows\": %lld, \"min_id\": %lld, "
+        printf("{\"path\": \"%s\", \"digest\": \"%s\", \"samples\": %lld, \"rows\": %lld, \"min_id\": %lld, "
                "\"max_id\": %lld, \"params\": %d, \"descriptor_size\": %zu, \"bytes\": %lld, "
                "\"config_hash\": \"%s\", \"config\": %s}\n",
-               path, in.samples, in.rows, in.min_id, in.max_id, in.n_params, in.descriptor_size,
+               path, sum, in.samples, in.rows, in.min_id, in.max_id, in.n_params, in.descriptor_size,
                in.file_bytes, in.config_hash, in.config_json);
     else {
         printf("%s\n  samples          %lld (%lld rows with views)\n", path, in.samples, in.rows);
@@ -68,6 +78,8 @@ static int info(const char *sub, int argc, char **argv)
                in.n_params, in.descriptor_size, (double)in.file_bytes / 1e6,
                in.rows ? (double)in.file_bytes / 1e3 / (double)in.rows : 0.0, in.config_hash,
                in.config_json);
+        if (digest)
+            printf("  content digest   %s\n", sum);
     }
     dataset_info_free(&in);
     dataset_close(d);

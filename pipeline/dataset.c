@@ -259,6 +259,42 @@ int dataset_iter_next(dataset_iter *it, dataset_row *row, char *err, size_t errl
     return 1;
 }
 
+int dataset_digest(dataset *d, char out[65], char *err, size_t errlen)
+{
+    sqlite3_stmt *st = NULL;
+    if (sqlite3_prepare_v2(d->db,
+                           "SELECT id, view, params, active, subshader_nodes, view_json, image, "
+                           "descriptor FROM samples ORDER BY id, view",
+                           -1, &st, NULL) != SQLITE_OK)
+        return pipeline_error(err, errlen, "%s: %s", d->path, sqlite3_errmsg(d->db));
+    sha256_ctx c;
+    sha256_init(&c);
+    int rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        for (int k = 0; k < 8; k++) {
+            /* Each column as its type, its length and its bytes: no two rows collide by
+             * moving bytes between columns. */
+            int64_t v[2] = {sqlite3_column_type(st, k), 0};
+            const void *p = NULL;
+            if (v[0] == SQLITE_INTEGER)
+                v[1] = sqlite3_column_int64(st, k);
+            else if (v[0] != SQLITE_NULL) {
+                p = v[0] == SQLITE_TEXT ? (const void *)sqlite3_column_text(st, k)
+                                        : sqlite3_column_blob(st, k);
+                v[1] = sqlite3_column_bytes(st, k);
+            }
+            sha256_update(&c, v, sizeof v);
+            if (p)
+                sha256_update(&c, p, (size_t)v[1]);
+        }
+    }
+    sqlite3_finalize(st);
+    if (rc != SQLITE_DONE)
+        return pipeline_error(err, errlen, "%s: %s", d->path, sqlite3_errmsg(d->db));
+    sha256_final_hex(&c, out);
+    return 0;
+}
+
 /* ---------------------------------------------------------------- merge ------------ */
 
 int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path, char *err,

@@ -109,9 +109,17 @@ int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subsh
                     d = differs_with(g, &p, k, ((float)c + 0.5f) / (float)choices, base,
                                      blender, err, errlen);
         } else {
-            float v = p.values[k] + 0.5f;
-            v = roundf((v >= 1.0f ? v - 1.0f : v) * 1000.0f) / 1000.0f;
-            d = differs_with(g, &p, k, v, base, blender, err, errlen);
+            /* A value parameter may act only past a threshold (a clamped Map Range): try
+             * values spread over (0, 1), stopping at the first change. Not 0 or 1 exactly:
+             * there folds like x * 0 reshape the sub-shader without changing what an
+             * unused branch computes (a false "active"). */
+            static const float offsets[] = {0.5f, 0.25f, 0.75f, 0.125f, 0.375f, 0.625f, 0.875f};
+            for (size_t j = 0; j < sizeof offsets / sizeof offsets[0] && d == 0; j++) {
+                float v = p.values[k] + offsets[j];
+                v = roundf((v >= 1.0f ? v - 1.0f : v) * 1000.0f) / 1000.0f;
+                if (v > 0.0f && v < 1.0f && v != p.values[k])
+                    d = differs_with(g, &p, k, v, base, blender, err, errlen);
+            }
         }
         if (d < 0)
             rc = -1;

@@ -49,10 +49,13 @@ render_material *pipeline_render_material(const sg_graph *g, const char *graph_p
 
 /* Which parameters of the bound graph g the sub-shader depends on. Parameter k is active
  * when setting it alone to another value changes the extracted sub-shader (its JSON,
- * constants included): for a value parameter, v -> v + 0.5 (mod 1, 3 decimals); for a
- * "Mult N" selector, any other of its N choices (bin centres). An inactive parameter is
- * folded away (a factor of zero, an unselected branch), so it provably does not affect
- * the image. g's parameters are restored before returning.
+ * constants included): for a "Mult N" selector, any other of its N choices (bin centres);
+ * for a value parameter, any of 7 values spread over (0, 1) (v + 1/8, 2/8, ... mod 1),
+ * since a value may act only past a threshold. Testing stops at the first
+ * change, so an active parameter costs one extraction or a few. An inactive parameter is
+ * folded away (a factor of zero, an unselected branch), so it does not affect the image
+ * (tests/unit/test_pipeline.c checks the material's values at other values too). g's
+ * parameters are restored before returning.
  * active[k] is 0 or 1 for the k-th parameter of g (sg_params_from_graph order).
  * *subshader_nodes receives the extracted sub-shader's node count (may be NULL).
  * Returns 0, or -1 with a message. */
@@ -175,6 +178,10 @@ dataset_iter *dataset_iter_new(dataset *d, int want_descriptor, int want_image, 
                                size_t errlen);
 int dataset_iter_next(dataset_iter *it, dataset_row *row, char *err, size_t errlen);
 void dataset_iter_free(dataset_iter *it);
+
+/* SHA-256 over every row's contents in (id, view) order: equal digests mean the same
+ * samples, byte for byte, however the files were made (shards, merges, resumed runs). */
+int dataset_digest(dataset *d, char out[65], char *err, size_t errlen);
 
 /* Merges datasets made with the same config into out_path (written to a temporary file
  * and renamed). A config mismatch or an id present in two inputs is an error naming both

@@ -17,4 +17,15 @@ double pipeline_now(void);
 /* Reads a whole file (NUL-terminated; *len excludes the NUL). NULL with a message. */
 char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen);
 
+/* SHA-256, incrementally (sha256.c). */
+typedef struct sha256_ctx {
+    uint32_t h[8];
+    uint64_t length; /* bytes so far */
+    unsigned char block[64];
+    size_t fill;
+} sha256_ctx;
+void sha256_init(sha256_ctx *c);
+void sha256_update(sha256_ctx *c, const void *data, size_t len);
+void sha256_final_hex(sha256_ctx *c, char out[65]);
+
 #endif

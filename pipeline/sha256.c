@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "pipeline/pipeline.h"
+#include "pipeline/pipeline_internal.h"
 
 static const uint32_t round_constants[64] = {
     0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
@@ -48,25 +48,49 @@ static void compress_block(uint32_t h[8], const unsigned char *block)
     h[0] += a, h[1] += b, h[2] += c, h[3] += d, h[4] += e, h[5] += f, h[6] += g, h[7] += k;
 }
 
+void sha256_init(sha256_ctx *c)
+{
+    static const uint32_t initial[8] = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
+                                        0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
+    memcpy(c->h, initial, sizeof initial);
+    c->length = 0;
+    c->fill = 0;
+}
+
+void sha256_update(sha256_ctx *c, const void *data, size_t len)
+{
+    const unsigned char *p = data;
+    c->length += len;
+    while (len) {
+        size_t take = 64 - c->fill < len ? 64 - c->fill : len;
+        memcpy(c->block + c->fill, p, take);
+        c->fill += take;
+        p += take;
+        len -= take;
+        if (c->fill == 64) {
+            compress_block(c->h, c->block);
+            c->fill = 0;
+        }
+    }
+}
+
+void sha256_final_hex(sha256_ctx *c, char out[65])
+{
+    /* A 1 bit, zeros, and the length in bits: one or two more blocks. */
+    uint64_t bits = c->length * 8;
+    unsigned char pad[72] = {0x80};
+    size_t padlen = c->fill < 56 ? 56 - c->fill : 120 - c->fill;
+    for (int i = 0; i < 8; i++)
+        pad[padlen + (size_t)i] = (unsigned char)(bits >> (56 - 8 * i));
+    sha256_update(c, pad, padlen + 8);
+    for (int i = 0; i < 8; i++)
+        snprintf(out + 8 * i, 9, "%08x", c->h[i]);
+}
+
 void pipeline_sha256_hex(const void *data, size_t len, char out[65])
 {
-    uint32_t h[8] = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
-                     0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
-    const unsigned char *p = data;
-    size_t full = len / 64;
-    for (size_t i = 0; i < full; i++)
-        compress_block(h, p + 64 * i);
-    /* The tail, a 1 bit, zeros, and the length in bits: one or two more blocks. */
-    unsigned char tail[128] = {0};
-    size_t rest = len - 64 * full;
-    memcpy(tail, p + 64 * full, rest);
-    tail[rest] = 0x80;
-    size_t tail_len = rest + 1 + 8 <= 64 ? 64 : 128;
-    uint64_t bits = (uint64_t)len * 8;
-    for (int i = 0; i < 8; i++)
-        tail[tail_len - 1 - i] = (unsigned char)(bits >> (8 * i));
-    for (size_t i = 0; i < tail_len; i += 64)
-        compress_block(h, tail + i);
-    for (int i = 0; i < 8; i++)
-        snprintf(out + 8 * i, 9, "%08x", h[i]);
+    sha256_ctx c;
+    sha256_init(&c);
+    sha256_update(&c, data, len);
+    sha256_final_hex(&c, out);
 }
