@@ -3,6 +3,7 @@
 Runs inside Blender 3.4 or 4.x:
 
     blender -b -P blender/import_material.py -- material.json --save out.blend [--scene]
+        [--scene-file assets/scene-flash.json]
 
 and is a module for the other scripts here (render_socket.py):
 
@@ -404,11 +405,37 @@ def build_plane(scene):
     return ob
 
 
+def load_scene_file(path):
+    """Our scene file (assets/scene.json's format, imsynth-scene/1) as the settings
+    build_scene takes: the first light, the world, resolution and filter. Only what may
+    differ between our scene files is read: the camera and plane are DESIGN.md's."""
+    with open(path) as f:
+        j = json.load(f)
+    if j.get("format") != "imsynth-scene/1":
+        raise ImportError_("%s: not an imsynth-scene/1 file" % path)
+    try:
+        light = j["lights"][0]
+        world = j["world"]
+        return {"res": int(j["resolution"][0]), "filter_width": float(j["film"]["filter_width"]),
+                "light_location": tuple(float(v) for v in light["location"]),
+                "light_radius": float(light["radius"]), "light_power": float(light["power"]),
+                "light_color": tuple(float(v) for v in light["color"]),
+                "world_color": float(world["color"][0]) * float(world.get("strength", 1.0))}
+    except (KeyError, IndexError, TypeError, ValueError) as e:
+        raise ImportError_("%s: %s" % (path, e))
+
+
 def build_scene(scene=None, material=None, res=256, light=True, world_color=0.0509,
-                samples=None, filter_width=1.5):
+                samples=None, filter_width=1.5, settings=None):
     """Build DESIGN.md's scene in `scene` (default: the current one), replacing its objects;
     `material` (if any) goes on the plane. The reference renderer reuses this with
-    light=False, world_color=0, filter_width=0.01 and res=128. Returns the plane object."""
+    light=False, world_color=0, filter_width=0.01 and res=128. `settings` (from
+    load_scene_file) overrides the light, world, resolution and filter: another of our
+    scene files, e.g. assets/scene-flash.json. Returns the plane object."""
+    st = settings or {}
+    res = st.get("res", res)
+    filter_width = st.get("filter_width", filter_width)
+    world_color = st.get("world_color", world_color)
     scene = scene or bpy.context.scene
     _clear_scene_objects(scene)
     plane = build_plane(scene)
@@ -426,11 +453,11 @@ def build_scene(scene=None, material=None, res=256, light=True, world_color=0.05
 
     if light:
         ld = bpy.data.lights.new("Light", "POINT")
-        ld.energy = 9.25
-        ld.shadow_soft_size = 0.1
-        ld.color = (1.0, 1.0, 1.0)
+        ld.energy = st.get("light_power", 9.25)
+        ld.shadow_soft_size = st.get("light_radius", 0.1)
+        ld.color = st.get("light_color", (1.0, 1.0, 1.0))
         lo = bpy.data.objects.new("Light", ld)
-        lo.location = (0.45, 0.35, 0.55)
+        lo.location = st.get("light_location", (0.45, 0.35, 0.55))
         scene.collection.objects.link(lo)
 
     world = bpy.data.worlds.new("World")
@@ -491,6 +518,8 @@ def _main(argv):
     p.add_argument("material")
     p.add_argument("--save", required=True, help="write this .blend")
     p.add_argument("--scene", action="store_true", help="also build DESIGN.md's scene")
+    p.add_argument("--scene-file", help="build the scene of this scene file instead "
+                   "(e.g. assets/scene-flash.json); implies --scene")
     p.add_argument("--strict", action="store_true",
                    help="refuse values Blender would clamp (negative colours, ...)")
     a = p.parse_args(argv)
@@ -502,8 +531,9 @@ def _main(argv):
         for block in list(coll):
             coll.remove(block)
     mat = build_material(data, blender_major(), source=a.material, strict=a.strict)
-    if a.scene:
-        build_scene(bpy.context.scene, mat)
+    if a.scene or a.scene_file:
+        settings = load_scene_file(a.scene_file) if a.scene_file else None
+        build_scene(bpy.context.scene, mat, settings=settings)
     else:
         mat.use_fake_user = True
     bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save))

@@ -1,7 +1,7 @@
 """Runs inside Blender: render one converged-reference half of a material in the scene.
 
     blender -b --factory-startup -P blender/render_reference.py -- \
-        GRAPH.json --samples N --seed S -o OUT.exr [--timing OUT.json]
+        GRAPH.json --samples N --seed S -o OUT.exr [--timing OUT.json] [--scene-file S.json]
 
 Builds the material from our JSON (import_material.build_material) on the plane of
 DESIGN.md's scene (import_material.build_scene: point light, world 0.0509, Cycles CPU,
@@ -30,13 +30,15 @@ def main(argv):
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--timing")
     p.add_argument("--threads", type=int, default=0, help="0: all cores")
+    p.add_argument("--scene-file", help="one of our scene files instead of DESIGN.md's scene")
     a = p.parse_args(argv)
     data = import_material.load_json(a.graph)
     major = import_material.blender_major()
     mat = import_material.build_material(data, major, source=a.graph)
     scene = bpy.context.scene
+    settings = import_material.load_scene_file(a.scene_file) if a.scene_file else None
     import_material.build_scene(scene, material=mat, res=256, light=True, samples=a.samples,
-                                filter_width=1.5)
+                                filter_width=1.5, settings=settings)
     scene.cycles.seed = a.seed
     if a.threads:
         scene.render.threads_mode = "FIXED"

@@ -4,7 +4,8 @@
     python3 blender/render_references.py [CASE_DIR ...] [--versions 3.4,4.3]
                                          [--samples 2048] [--threads 0]
 
-Each case directory holds graph.json (a material in our format). For each Blender
+Each case directory holds graph.json (a material in our format), and scene.json when the case
+is rendered in one of our other scene files (the flash scene). For each Blender
 version, two halves are rendered with different seeds, each with --samples samples
 (default 2048, so the reference has 4096): blender-<ver>-a.exr and blender-<ver>-b.exr
 (half float), with blender-<ver>-a.json / -b.json giving the Blender version, samples and
@@ -40,12 +41,18 @@ def render_cycles(graph, version, samples, seed, out_exr, out_timing, threads=0,
         for s in SCRIPTS:
             shutil.copy(os.path.join(REPO, "blender", s), work)
         shutil.copy(graph, os.path.join(work, "graph.json"))
+        # A case with its own scene file (e.g. the flash scene) is rendered in that scene.
+        scene_file = os.path.join(os.path.dirname(graph), "scene.json")
+        if os.path.exists(scene_file):
+            shutil.copy(scene_file, os.path.join(work, "scene.json"))
         inside = (lambda p: p[len(CHROOT):]) if chroot else (lambda p: p)
         cmd = ["blender", "-b", "--factory-startup", "-noaudio", "-P",
                inside(os.path.join(work, "render_reference.py")), "--",
                inside(os.path.join(work, "graph.json")), "--samples", str(samples),
                "--seed", str(seed), "-o", inside(os.path.join(work, "out.exr")),
                "--timing", inside(os.path.join(work, "out.json")), "--threads", str(threads)]
+        if os.path.exists(scene_file):
+            cmd += ["--scene-file", inside(os.path.join(work, "scene.json"))]
         cmd = (["nice", "-n", str(nice)] if nice else []) + (["chroot", CHROOT] if chroot else []) + cmd
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0 or not os.path.exists(os.path.join(work, "out.exr")):

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -255,8 +256,11 @@ int cmd_datagen(int argc, char **argv)
         cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
     if (!quiet)
-        fprintf(stderr, "datagen: %s: %lld samples made in %.1f s%s\n", o.out_path, made,
-                now_s() - ps.start, rc == 1 ? " (stopped; rerun to resume)" : "");
+        fprintf(stderr, "datagen: %s: %lld samples made in %.1f s, peak RSS %.0f MB%s\n",
+                o.out_path, made, now_s() - ps.start, (double)ru.ru_maxrss / 1024.0,
+                rc == 1 ? " (stopped; rerun to resume)" : "");
     return rc == 1 ? 130 : EXIT_OK;
 }

@@ -194,6 +194,13 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
             image a, b;
             if (image_read(pa, &a, err, sizeof err) < 0 || image_read(pb, &b, err, sizeof err) < 0)
                 fail_msg("%s", err);
+            /* A case with its own scene file (the flash scene) renders in it. */
+            char sp[1024];
+            snprintf(sp, sizeof sp, "%s/%s/scene.json", CASES, name);
+            render_scene *case_scene = NULL;
+            if (file_exists(sp) && !(case_scene = render_scene_load(sp, err, sizeof err)))
+                fail_msg("%s", err);
+            const render_scene *scene = case_scene ? case_scene : s;
             sg_error e;
             sg_graph *g = sg_graph_load_file(gp, &e);
             if (!g)
@@ -220,7 +227,7 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
                 o.width = a.width;
                 o.height = a.height;
                 render_stats st;
-                if (render_image(s, m, &o, &ours[k], &st, err, sizeof err) < 0)
+                if (render_image(scene, m, &o, &ours[k], &st, err, sizeof err) < 0)
                     fail_msg("%s", err);
                 seconds += st.seconds;
                 assert_true(st.indirect_hits == 0);
@@ -248,6 +255,7 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
             image_free(&a);
             image_free(&b);
             render_material_free(m);
+            render_scene_free(case_scene);
         }
     }
     for (int i = 0; i < n_names; i++)
