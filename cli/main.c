@@ -1,9 +1,11 @@
 /* imsynth: dispatch to one subcommand. */
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/cli.h"
+#include "pipeline/pipeline.h"
 
 typedef struct subcommand {
     const char *name;
@@ -46,20 +48,35 @@ int cli_wants_help(int argc, char **argv)
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: imsynth <command> [options]   (imsynth <command> --help for its options)\n"
-               "       imsynth --version\n\ncommands:\n");
+    fprintf(f, "usage: imsynth [--data DIR] <command> [options]   (imsynth <command> --help)\n"
+               "       imsynth --version   (and where the data files are found)\n\n"
+               "--data DIR: the directory holding assets/ and blender/ (also $IMSYNTH_DATA);\n"
+               "by default the installation's share/imsynth, else the source tree built from.\n"
+               "\ncommands:\n");
     for (size_t i = 0; i < sizeof subcommands / sizeof subcommands[0]; i++)
         fprintf(f, "  %-12s %s\n", subcommands[i].name, subcommands[i].summary);
 }
 
 int main(int argc, char **argv)
 {
+    /* --data DIR says where the data files are, for this run and the commands it runs:
+     * it sets IMSYNTH_DATA, which pipeline_find_data reads first. */
+    if (argc >= 3 && !strcmp(argv[1], "--data")) {
+        setenv("IMSYNTH_DATA", argv[2], 1);
+        argc -= 2;
+        argv += 2;
+    }
     if (argc < 2) {
         usage(stderr);
         return EXIT_USAGE;
     }
     if (!strcmp(argv[1], "--version")) {
         printf("imsynth %s\n", IMSYNTH_VERSION);
+        char path[1024], err[1024];
+        if (pipeline_find_data("assets/supershader.json", path, sizeof path, err, sizeof err) == 0)
+            printf("data: %s\n", path);
+        else
+            printf("data: %s\n", err);
         return EXIT_OK;
     }
     if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help") || !strcmp(argv[1], "help")) {
