@@ -37,6 +37,8 @@ static const char *const help =
     "  --images none|png16|exr  store the render as a 16-bit linear PNG (default), a half\n"
     "                         EXR, or not at all\n"
     "  --descriptor vgg19|none  store the descriptor (default vgg19)\n"
+    "  --descriptor-mask M.npy  store only these features: a 0/1 mask over the 305,888\n"
+    "                         values or their indices (e.g. `imsynth forest importance`)\n"
     "  --batch B              samples per transaction (default 4 x threads)\n"
     "  --blender 4|3          node and BSDF semantics (default 4)\n"
     "  --graph G.json         super-shader (default: assets/supershader.json, found beside\n"
@@ -227,6 +229,8 @@ int cmd_datagen(int argc, char **argv)
             o.scene_path = v;
         else if (!strcmp(a, "--flash-scene"))
             o.flash_scene_path = v;
+        else if (!strcmp(a, "--descriptor-mask"))
+            o.descriptor_mask_path = v;
         else {
             cli_error(sub, "unknown option \"%s\" (see --help)", a);
             return EXIT_USAGE;

@@ -11,6 +11,7 @@ static const char *const help =
     "       imsynth dataset merge A.sqlite B.sqlite ... -o ALL.sqlite\n"
     "       imsynth dataset export DS.sqlite --npy DIR\n"
     "       imsynth dataset sheet DS.sqlite -o SHEET.png [--count N] [--cols C] [--tile PX]\n"
+    "       imsynth dataset describe DS.sqlite -o OUT.sqlite [--descriptor-mask M.npy] [--threads T]\n"
     "\n"
     "info    samples, rows (samples x views), id range, parameters, descriptor size, size\n"
     "        on disk, the config and its hash; --digest adds a SHA-256 of every row's\n"
@@ -25,7 +26,9 @@ static const char *const help =
     "          Y = np.load('DIR/params.npy'); M = np.load('DIR/active.npy').astype(bool)\n"
     "          names = open('DIR/params.txt').read().split('\\n')[:-1]\n"
     "          ids = np.load('DIR/ids.npy')\n"
-    "sheet   a contact sheet of the first N renders (default 64), labelled with their ids\n";
+    "sheet   a contact sheet of the first N renders (default 64), labelled with their ids\n"
+    "describe  recompute the descriptors from the stored renders into a new dataset (all\n"
+    "        305,888 values, or only the features of a mask: a 0/1 mask or index list)\n";
 
 static int info(const char *sub, int argc, char **argv)
 {
@@ -168,6 +171,42 @@ static int export_or_sheet(const char *sub, int argc, char **argv, int sheet)
     return EXIT_OK;
 }
 
+static int describe(const char *sub, int argc, char **argv)
+{
+    const char *path = NULL, *out = NULL, *mask = NULL;
+    long threads = 2;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && i + 1 < argc)
+            out = argv[++i];
+        else if (!strcmp(a, "--descriptor-mask") && i + 1 < argc)
+            mask = argv[++i];
+        else if (!strcmp(a, "--threads") && i + 1 < argc) {
+            char *end;
+            threads = strtol(argv[++i], &end, 10);
+            if (*end || threads < 1 || threads > 256) {
+                cli_error(sub, "--threads: expected 1-256, got \"%s\"", argv[i]);
+                return EXIT_USAGE;
+            }
+        } else if (a[0] != '-' && !path)
+            path = a;
+        else {
+            cli_error(sub, "describe: unexpected argument \"%s\"", a);
+            return EXIT_USAGE;
+        }
+    }
+    if (!path || !out) {
+        cli_error(sub, "describe: need DS.sqlite and -o OUT.sqlite");
+        return EXIT_USAGE;
+    }
+    char err[1024];
+    if (dataset_describe(path, out, mask, (int)threads, err, sizeof err)) {
+        cli_error(sub, "%s", err);
+        return EXIT_FAILURE_WORK;
+    }
+    return EXIT_OK;
+}
+
 int cmd_dataset(int argc, char **argv)
 {
     const char *sub = "dataset";
@@ -184,6 +223,8 @@ int cmd_dataset(int argc, char **argv)
         return export_or_sheet(sub, argc - 2, argv + 2, 0);
     if (!strcmp(verb, "sheet"))
         return export_or_sheet(sub, argc - 2, argv + 2, 1);
-    cli_error(sub, "unknown verb \"%s\" (info, merge, export, sheet)", verb);
+    if (!strcmp(verb, "describe"))
+        return describe(sub, argc - 2, argv + 2);
+    cli_error(sub, "unknown verb \"%s\" (info, merge, export, sheet, describe)", verb);
     return EXIT_USAGE;
 }

@@ -201,9 +201,8 @@ typedef struct shared {
     const char *scene_text, *flash_text;
     const render_scene *scene, *flash_scene;
     double base_light[3], flash_light[3];
-    vgg19 net;
-    vgg_options vgg;
-    size_t desc_size;
+    descriptor_config desc;
+    size_t desc_size; /* stored floats a view (0: no descriptor) */
     int n_params, n_views;
     char tmpdir[512];
 } shared;
@@ -213,8 +212,7 @@ typedef struct worker {
     int index;
     sg_graph *graph;
     sg_params params;
-    vgg_workspace *ws;
-    float *vgg_in, *desc;
+    descriptor_worker dw;
     double stage_seconds[5];
     /* per batch */
     sample_result *results;
@@ -235,8 +233,10 @@ static void result_clear(sample_result *r)
 }
 
 /* Encodes img as the dataset's image format, through a temporary file (imageio writes
- * files; the bytes are what the file holds). */
-static int encode_image(worker *w, const image *img, view_result *vr, char *err, size_t errlen)
+ * files; the bytes are what the file holds), and replaces img by what that file decodes
+ * to: the descriptor is then computed from exactly the image stored, so `dataset
+ * describe` reproduces it bit for bit. */
+static int encode_image(worker *w, image *img, view_result *vr, char *err, size_t errlen)
 {
     const datagen_options *o = w->sh->o;
     if (o->images == DATAGEN_IMAGES_NONE)
@@ -252,9 +252,17 @@ static int encode_image(worker *w, const image *img, view_result *vr, char *err,
         return pipeline_error(err, errlen, "%s", msg);
     size_t len;
     char *bytes = pipeline_read_file(path, &len, err, errlen);
+    image stored;
+    if (bytes && image_read(path, &stored, msg, sizeof msg) < 0) {
+        free(bytes);
+        bytes = NULL;
+        pipeline_error(err, errlen, "%s", msg);
+    }
     unlink(path);
     if (!bytes)
         return -1;
+    image_free(img);
+    *img = stored;
     vr->image = (unsigned char *)bytes;
     vr->image_len = len;
     return 0;
@@ -315,25 +323,15 @@ static int make_view(worker *w, const render_material *m, long long id, int view
     double t1 = pipeline_now();
     w->stage_seconds[2] += t1 - t0;
 
-    if (o->descriptor == DATAGEN_DESC_VGG19_F16) {
-        if (vgg_preprocess(w->vgg_in, img.pixels, img.width, img.height, img.channels)) {
-            image_free(&img);
-            return pipeline_error(err, errlen, "id %lld: render too small for the descriptor",
-                                  id);
-        }
-        vgg_describe(w->ws, w->vgg_in, 1, w->desc);
-        if (!(vr->descriptor = malloc(sh->desc_size * sizeof(uint16_t)))) {
-            image_free(&img);
-            return pipeline_error(err, errlen, "out of memory");
-        }
-        for (size_t i = 0; i < sh->desc_size; i++)
-            vr->descriptor[i] = nn_float_to_half(w->desc[i]);
-    }
-    double t2 = pipeline_now();
-    w->stage_seconds[3] += t2 - t1;
     rc = encode_image(w, &img, vr, err, errlen);
+    double t2 = pipeline_now();
+    w->stage_seconds[4] += t2 - t1;
+    if (rc == 0 && sh->desc_size &&
+        !(vr->descriptor = descriptor_compute_f16(&sh->desc, &w->dw, &img)))
+        rc = pipeline_error(err, errlen, "id %lld: render too small for the descriptor, or out "
+                                         "of memory", id);
     image_free(&img);
-    w->stage_seconds[4] += pipeline_now() - t2;
+    w->stage_seconds[3] += pipeline_now() - t2;
     return rc;
 }
 
@@ -409,14 +407,9 @@ static char *config_json(const datagen_options *o, const shared *sh, const char 
                             : o->images == DATAGEN_IMAGES_PNG16 ? "png16-linear"
                                                                 : "exr-half");
     cJSON *d = cJSON_AddObjectToObject(c, "descriptor");
-    if (o->descriptor == DATAGEN_DESC_VGG19_F16) {
-        cJSON_AddStringToObject(d, "features", "vgg19");
-        cJSON_AddStringToObject(d, "weights", "random he-normal, seed 1");
-        cJSON_AddStringToObject(d, "pool", "avg3");
-        cJSON_AddStringToObject(d, "precision", "fp32");
-        cJSON_AddStringToObject(d, "storage", "float16");
-        cJSON_AddNumberToObject(d, "size", (double)sh->desc_size);
-    } else
+    if (sh->desc_size)
+        descriptor_config_json(&sh->desc, d);
+    else
         cJSON_AddStringToObject(d, "features", "none");
     char *s = cJSON_PrintUnformatted(c);
     cJSON_Delete(c);
@@ -551,11 +544,9 @@ static int load_shared(shared *sh, const datagen_options *o, char *paths[3], cha
     }
     sh->n_views = 1 + o->augment.views;
     if (o->descriptor == DATAGEN_DESC_VGG19_F16) {
-        if (vgg19_init_random(&sh->net, vgg19_standard_width, 1))
-            return pipeline_error(err, errlen, "out of memory for VGG19");
-        sh->vgg = (vgg_options){.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32,
-                                .threads = 1};
-        sh->desc_size = vgg19_descriptor_size(&sh->net);
+        if (descriptor_config_init(&sh->desc, o->descriptor_mask_path, err, errlen))
+            return -1;
+        sh->desc_size = sh->desc.n_stored;
     }
     const char *t = getenv("TMPDIR");
     snprintf(sh->tmpdir, sizeof sh->tmpdir, "%s", t && *t ? t : "/tmp");
@@ -569,7 +560,7 @@ static void free_shared(shared *sh)
     render_scene_free((render_scene *)sh->scene);
     render_scene_free((render_scene *)sh->flash_scene);
     if (sh->desc_size)
-        vgg19_free(&sh->net);
+        descriptor_config_free(&sh->desc);
 }
 
 static int worker_init(worker *w, const shared *sh, int index, char *err, size_t errlen)
@@ -582,13 +573,8 @@ static int worker_init(worker *w, const shared *sh, int index, char *err, size_t
         return pipeline_error(err, errlen, "%s", e.msg);
     if (sg_params_from_graph(w->graph, &w->params, &e) < 0)
         return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e.msg);
-    if (sh->desc_size) {
-        w->ws = vgg_workspace_create(&sh->net, &sh->vgg, 1);
-        w->vgg_in = malloc(3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE * sizeof(float));
-        w->desc = malloc(sh->desc_size * sizeof(float));
-        if (!w->ws || !w->vgg_in || !w->desc)
-            return pipeline_error(err, errlen, "out of memory for the descriptor workspace");
-    }
+    if (sh->desc_size && descriptor_worker_init(&w->dw, &sh->desc))
+        return pipeline_error(err, errlen, "out of memory for the descriptor workspace");
     return 0;
 }
 
@@ -597,9 +583,7 @@ static void worker_free(worker *w)
     sg_graph_free(w->graph);
     if (w->params.names)
         sg_params_free(&w->params);
-    vgg_workspace_free(w->ws);
-    free(w->vgg_in);
-    free(w->desc);
+    descriptor_worker_free(&w->dw);
 }
 
 int datagen_run(const datagen_options *o, long long *made, char *err, size_t errlen)

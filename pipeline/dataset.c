@@ -398,6 +398,128 @@ done:
     return rc;
 }
 
+/* ---------------------------------------------------------------- describe --------- */
+
+int dataset_describe(const char *src_path, const char *out_path, const char *mask_path,
+                     int threads, char *err, size_t errlen)
+{
+    dataset *d = dataset_open(src_path, err, errlen);
+    if (!d)
+        return -1;
+    char tmp[1100];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", out_path, (long)getpid());
+    unlink(tmp);
+    descriptor_config dc;
+    descriptor_worker dw = {0};
+    int rc = -1, have_dc = 0;
+    sqlite3 *out = NULL;
+    sqlite3_stmt *rd = NULL, *wr = NULL;
+    cJSON *cfg = cJSON_Parse(d->config);
+    char *cfg_text = NULL, *names = store_meta_get(d->db, src_path, "params", err, errlen);
+    if (!cfg || !names)
+        goto done;
+    if (descriptor_config_init(&dc, mask_path, err, errlen))
+        goto done;
+    have_dc = 1;
+    dc.vgg.threads = threads > 0 ? threads : 1;
+    if (descriptor_worker_init(&dw, &dc)) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    cJSON *desc = cJSON_CreateObject();
+    descriptor_config_json(&dc, desc);
+    cJSON_ReplaceItemInObjectCaseSensitive(cfg, "descriptor", desc);
+    if (!(cfg_text = cJSON_PrintUnformatted(cfg)) ||
+        !(out = store_open_for_writing(tmp, cfg_text, names, err, errlen)))
+        goto done;
+    if (sqlite3_prepare_v2(d->db,
+                           "SELECT id, view, params, active, subshader_nodes, view_json, image "
+                           "FROM samples ORDER BY id, view",
+                           -1, &rd, NULL) != SQLITE_OK ||
+        sqlite3_prepare_v2(out,
+                           "INSERT INTO samples(id, view, params, active, subshader_nodes, "
+                           "view_json, image, descriptor) VALUES(?,?,?,?,?,?,?,?)",
+                           -1, &wr, NULL) != SQLITE_OK) {
+        pipeline_error(err, errlen, "%s: %s", src_path, sqlite3_errmsg(d->db));
+        goto done;
+    }
+    if (store_exec(out, tmp, "BEGIN", err, errlen))
+        goto done;
+    int step;
+    long long rows = 0;
+    while ((step = sqlite3_step(rd)) == SQLITE_ROW) {
+        long long id = sqlite3_column_int64(rd, 0);
+        const void *blob = sqlite3_column_blob(rd, 6);
+        if (!blob) {
+            pipeline_error(err, errlen, "%s: id %lld has no stored image (made with --images "
+                                        "none): nothing to describe",
+                           src_path, id);
+            goto done;
+        }
+        image img;
+        if (decode_image(d, blob, sqlite3_column_bytes(rd, 6), &img, id, err, errlen))
+            goto done;
+        uint16_t *h = descriptor_compute_f16(&dc, &dw, &img);
+        image_free(&img);
+        if (!h) {
+            pipeline_error(err, errlen, "%s: id %lld: image too small to describe", src_path, id);
+            goto done;
+        }
+        sqlite3_reset(wr);
+        for (int k = 0; k < 7; k++)
+            sqlite3_bind_value(wr, k + 1, sqlite3_column_value(rd, k));
+        sqlite3_bind_blob(wr, 8, h, (int)(dc.n_stored * 2), free);
+        if (sqlite3_step(wr) != SQLITE_DONE) {
+            pipeline_error(err, errlen, "%s: %s", tmp, sqlite3_errmsg(out));
+            goto done;
+        }
+        /* Commit every 64 rows: a long run keeps its WAL small. The temporary file is
+         * only renamed into place when complete. */
+        if (++rows % 64 == 0 &&
+            (store_exec(out, tmp, "COMMIT", err, errlen) || store_exec(out, tmp, "BEGIN", err, errlen)))
+            goto done;
+    }
+    if (step != SQLITE_DONE) {
+        pipeline_error(err, errlen, "%s: %s", src_path, sqlite3_errmsg(d->db));
+        goto done;
+    }
+    sqlite3_finalize(wr);
+    wr = NULL;
+    if (store_exec(out, tmp, "COMMIT; PRAGMA wal_checkpoint(TRUNCATE); PRAGMA journal_mode=DELETE;",
+                   err, errlen))
+        goto done;
+    int closed = sqlite3_close(out) == SQLITE_OK;
+    out = NULL;
+    if (!closed || rename(tmp, out_path)) {
+        pipeline_error(err, errlen, "%s: %s failed", out_path, closed ? "rename" : "close");
+        goto done;
+    }
+    rc = 0;
+done:
+    sqlite3_finalize(rd);
+    sqlite3_finalize(wr);
+    if (out) {
+        sqlite3_exec(out, "ROLLBACK", NULL, NULL, NULL);
+        sqlite3_close(out);
+    }
+    if (rc) {
+        unlink(tmp);
+        char side[1200];
+        snprintf(side, sizeof side, "%s-wal", tmp);
+        unlink(side);
+        snprintf(side, sizeof side, "%s-shm", tmp);
+        unlink(side);
+    }
+    descriptor_worker_free(&dw);
+    if (have_dc)
+        descriptor_config_free(&dc);
+    cJSON_Delete(cfg);
+    free(cfg_text);
+    free(names);
+    dataset_close(d);
+    return rc;
+}
+
 /* ---------------------------------------------------------------- export ----------- */
 
 int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen)

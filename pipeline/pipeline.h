@@ -113,6 +113,10 @@ typedef struct datagen_options {
     datagen_augment augment;
     datagen_images images;
     datagen_descriptor descriptor;
+    /* NULL: the whole descriptor. Else a .npy that selects the stored features: a 0/1
+     * mask over the descriptor's 305,888 values, or a list of their indices (e.g. the
+     * forest's top-k from `imsynth forest importance`). Its hash is part of the config. */
+    const char *descriptor_mask_path;
     int batch;                 /* samples per transaction (0 = 4 x threads) */
     /* Progress: called after every committed batch with counts and seconds spent so far
      * (summed over workers) in each stage. May be NULL. */
@@ -188,6 +192,14 @@ int dataset_digest(dataset *d, char out[65], char *err, size_t errlen);
  * files. */
 int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path, char *err,
                   size_t errlen);
+
+/* Recomputes the descriptors of src's stored renders into a new dataset out_path (written
+ * to a temporary file and renamed): every row as in src, the descriptor computed as
+ * datagen does (restricted to mask_path's features when not NULL), the config's
+ * descriptor section changed accordingly. For a dataset made with --descriptor none, or
+ * to store fewer features. */
+int dataset_describe(const char *src_path, const char *out_path, const char *mask_path,
+                     int threads, char *err, size_t errlen);
 
 /* Writes ids.npy (int64), params.npy (float32, rows x n_params), active.npy (uint8),
  * views.npy (int32), descriptors.npy (float16, when stored) and params.txt (names) into

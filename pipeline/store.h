@@ -5,6 +5,7 @@
 #include <cjson/cJSON.h>
 #include <sqlite3.h>
 
+#include "nn/nn.h"
 #include "pipeline/pipeline_internal.h"
 
 #define STORE_SCHEMA "imsynth-dataset/1"
@@ -17,5 +18,29 @@ int store_check_schema(sqlite3 *db, const char *path, char *err, size_t errlen);
  * another config. WAL mode. */
 sqlite3 *store_open_for_writing(const char *path, const char *config_json,
                                 const char *params_json, char *err, size_t errlen);
+
+/* The dataset's descriptor (describe.c): network, options and feature selection. */
+typedef struct descriptor_config {
+    vgg19 net;
+    vgg_options vgg;
+    size_t full_size, n_stored;
+    uint32_t *index; /* stored features, ascending; NULL = all */
+    char mask_hash[65];
+} descriptor_config;
+typedef struct descriptor_worker {
+    vgg_workspace *ws;
+    float *in, *full;
+} descriptor_worker;
+int descriptor_config_init(descriptor_config *dc, const char *mask_path, char *err,
+                           size_t errlen);
+void descriptor_config_free(descriptor_config *dc);
+/* Adds the descriptor's settings to a config's "descriptor" object. */
+void descriptor_config_json(const descriptor_config *dc, cJSON *d);
+int descriptor_worker_init(descriptor_worker *dw, const descriptor_config *dc);
+void descriptor_worker_free(descriptor_worker *dw);
+/* The stored descriptor of a linear RGB image (at least 224 x 224): n_stored halves,
+ * malloc'd; NULL when the image is too small or out of memory. */
+uint16_t *descriptor_compute_f16(const descriptor_config *dc, descriptor_worker *dw,
+                                 const image *img);
 
 #endif

@@ -105,6 +105,25 @@ grep -a -q "'descr': '|u1'.*'shape': ($((2 * n)), 50)" "$tmp/npy/active.npy" && 
 "$imsynth" dataset sheet "$tmp/a.sqlite" -o "$tmp/sheet.png" --cols 4 --tile 64; check "sheet" 0 $?
 "$imsynth" compare "$tmp/sheet.png" "$tmp/sheet.png" > /dev/null; check "sheet is a readable image" 0 $?
 
+# Descriptors recomputed from the stored renders equal datagen's, whole or masked (a
+# mask is an index list: c.sqlite's ids.npy, [500, 501], serves as one).
+"$imsynth" datagen --out "$tmp/nd.sqlite" --count $n $common --augment "$aug" --descriptor none
+check "datagen without descriptors" 0 $?
+"$imsynth" dataset describe "$tmp/nd.sqlite" -o "$tmp/re.sqlite"; check "dataset describe" 0 $?
+same_digest "describe recomputes datagen's descriptors bit for bit" "$tmp/a.sqlite" "$tmp/re.sqlite"
+"$imsynth" dataset export "$tmp/c.sqlite" --npy "$tmp/cnpy"; check "export without descriptors" 0 $?
+"$imsynth" dataset describe "$tmp/nd.sqlite" -o "$tmp/rm.sqlite" --descriptor-mask "$tmp/cnpy/ids.npy"
+check "describe with a feature list" 0 $?
+"$imsynth" datagen --out "$tmp/dm.sqlite" --count $n $common --augment "$aug" --descriptor-mask "$tmp/cnpy/ids.npy"
+check "datagen with a feature list" 0 $?
+same_digest "masked datagen equals masked describe" "$tmp/dm.sqlite" "$tmp/rm.sqlite"
+"$imsynth" dataset info "$tmp/dm.sqlite" > "$tmp/out"; expect_stdout "2 features stored" "descriptor       2 floats"
+"$imsynth" datagen --out "$tmp/bm.sqlite" --count 1 $common --descriptor-mask "$tmp/npy/ids.npy" 2> "$tmp/err"
+check "a mask that is not ascending" 1 $?
+expect_stderr "names the mask and the entry" "ids.npy: entry 1"
+"$imsynth" dataset describe "$tmp/c.sqlite" -o "$tmp/x.sqlite" --descriptor-mask "$tmp/cnpy/ids.npy" 2> /dev/null
+check "describe of a dataset with images works" 0 $?
+
 # Bad files and places.
 echo "not a database" > "$tmp/text.sqlite"
 "$imsynth" dataset info "$tmp/text.sqlite" 2> "$tmp/err"; check "not a database" 1 $?
