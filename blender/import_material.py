@@ -391,24 +391,38 @@ def _clear_scene_objects(scene):
         bpy.data.objects.remove(ob, do_unlink=True)
 
 
-def build_plane(scene):
-    """2 m x 2 m plane at the origin, normal +Z, UV map UVMap spanning (0,0)-(1,1)."""
+def build_plane(scene, transform=None):
+    """2 m x 2 m plane at the origin, normal +Z, UV map UVMap spanning (0,0)-(1,1).
+    `transform` (location, rotation_euler: our scene file's object transform) moves the
+    texture space only: the object gets that matrix_world and its mesh the inverse, so the
+    plane stays where it is while Object and Generated coordinates move with the object."""
+    corners = [(-1.0, -1.0, 0.0), (1.0, -1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0)]
+    if transform:
+        from mathutils import Euler, Vector
+        loc = Vector(transform.get("location", (0.0, 0.0, 0.0)))
+        rot = Euler(transform.get("rotation_euler", (0.0, 0.0, 0.0)), "XYZ").to_matrix()
+        inv = rot.transposed()
+        corners = [tuple(inv @ (Vector(c) - loc)) for c in corners]
     mesh = bpy.data.meshes.new("Plane")
-    mesh.from_pydata([(-1.0, -1.0, 0.0), (1.0, -1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0)],
-                     [], [(0, 1, 2, 3)])
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
     uv = mesh.uv_layers.new(name="UVMap")
     for loop, (u, v) in zip(mesh.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
         uv.data[loop.index].uv = (u, v)
     mesh.update()
     ob = bpy.data.objects.new("Plane", mesh)
+    if transform:
+        ob.location = transform.get("location", (0.0, 0.0, 0.0))
+        ob.rotation_mode = "XYZ"
+        ob.rotation_euler = transform.get("rotation_euler", (0.0, 0.0, 0.0))
     scene.collection.objects.link(ob)
     return ob
 
 
 def load_scene_file(path):
     """Our scene file (assets/scene.json's format, imsynth-scene/1) as the settings
-    build_scene takes: the first light, the world, resolution and filter. Only what may
-    differ between our scene files is read: the camera and plane are DESIGN.md's."""
+    build_scene takes: the first light, the world, resolution, filter and the plane's object
+    transform. Only what may differ between our scene files is read: the camera and the
+    plane's vertices are DESIGN.md's."""
     with open(path) as f:
         j = json.load(f)
     if j.get("format") != "imsynth-scene/1":
@@ -416,7 +430,9 @@ def load_scene_file(path):
     try:
         light = j["lights"][0]
         world = j["world"]
+        plane = j["objects"][0]
         return {"res": int(j["resolution"][0]), "filter_width": float(j["film"]["filter_width"]),
+                "transform": plane.get("transform"),
                 "light_location": tuple(float(v) for v in light["location"]),
                 "light_radius": float(light["radius"]), "light_power": float(light["power"]),
                 "light_color": tuple(float(v) for v in light["color"]),
@@ -438,7 +454,7 @@ def build_scene(scene=None, material=None, res=256, light=True, world_color=0.05
     world_color = st.get("world_color", world_color)
     scene = scene or bpy.context.scene
     _clear_scene_objects(scene)
-    plane = build_plane(scene)
+    plane = build_plane(scene, st.get("transform"))
     if material is not None:
         plane.data.materials.append(material)
 

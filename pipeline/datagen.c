@@ -61,7 +61,7 @@ int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_
         if (!eq || end == eq + 1 || *end || !isfinite(v) || v < 0) {
             rc = pipeline_error(err, errlen,
                                 "--augment: \"%s\": expected KEY=NUMBER >= 0 (keys: views, "
-                                "light, flash, exposure, wb)",
+                                "light, flash, exposure, wb, rotate, shift)",
                                 tok);
             break;
         }
@@ -76,10 +76,15 @@ int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_
             a->exposure = (float)v;
         else if (!strcmp(tok, "wb") && v <= 1)
             a->wb = (float)v;
+        else if (!strcmp(tok, "rotate") && v <= 180)
+            a->rotate = (float)v;
+        else if (!strcmp(tok, "shift") && v <= 10)
+            a->shift = (float)v;
         else
             rc = pipeline_error(err, errlen,
                                 "--augment: %s=%g: unknown key or out of range (views 0-15 "
-                                "integer, light 0-1 m, flash 0-1, exposure 0-4 stops, wb 0-1)",
+                                "integer, light 0-1 m, flash 0-1, exposure 0-4 stops, wb 0-1, rotate 0-180 "
+                                "degrees, shift 0-10 m)",
                                 tok, v);
     }
     free(copy);
@@ -103,6 +108,8 @@ typedef struct view_settings {
     double light[3]; /* the light's location */
     double exposure; /* stops */
     double wb[3];    /* channel gains */
+    double rotate;   /* texture space: radians about +Z */
+    double shift[2]; /* texture space: metres in x, y */
 } view_settings;
 
 static void view_settings_make(const datagen_augment *a, const double base_light[3],
@@ -127,6 +134,15 @@ static void view_settings_make(const datagen_augment *a, const double base_light
     vs->exposure = (uniform01(&state) * 2.0 - 1.0) * a->exposure;
     vs->wb[0] = exp2((uniform01(&state) * 2.0 - 1.0) * a->wb);
     vs->wb[2] = exp2((uniform01(&state) * 2.0 - 1.0) * a->wb);
+    /* Drawn last, so that adding rotate/shift to a spec keeps the other draws. */
+    vs->rotate = (uniform01(&state) * 2.0 - 1.0) * a->rotate * M_PI / 180.0;
+    for (int k = 0; k < 2; k++)
+        vs->shift[k] = (uniform01(&state) * 2.0 - 1.0) * a->shift;
+}
+
+static int view_moves_texture(const view_settings *vs)
+{
+    return vs->rotate != 0.0 || vs->shift[0] != 0.0 || vs->shift[1] != 0.0;
 }
 
 static char *view_settings_json(const view_settings *vs)
@@ -135,22 +151,34 @@ static char *view_settings_json(const view_settings *vs)
     if (s)
         snprintf(s, 256,
                  "{\"scene\":\"%s\",\"light\":[%.6g,%.6g,%.6g],\"exposure\":%.6g,"
-                 "\"wb\":[%.6g,%.6g,%.6g]}",
+                 "\"wb\":[%.6g,%.6g,%.6g],\"rotation_z\":%.6g,\"shift\":[%.6g,%.6g]}",
                  vs->flash ? "flash" : "plain", vs->light[0], vs->light[1], vs->light[2],
-                 vs->exposure, vs->wb[0], vs->wb[1], vs->wb[2]);
+                 vs->exposure, vs->wb[0], vs->wb[1], vs->wb[2], vs->rotate, vs->shift[0],
+                 vs->shift[1]);
     return s;
 }
 
-/* The scene JSON text with its first light moved to `location`. */
-static char *scene_with_light(const char *scene_text, const double location[3])
+/* The scene JSON text of a view: its first light moved to the view's location, and the
+ * first object's texture space rotated and shifted (an object transform) when asked. */
+static char *scene_for_view(const char *scene_text, const view_settings *vs)
 {
     cJSON *root = cJSON_Parse(scene_text);
     cJSON *lights = root ? cJSON_GetObjectItemCaseSensitive(root, "lights") : NULL;
     cJSON *light = lights ? cJSON_GetArrayItem(lights, 0) : NULL;
+    cJSON *objects = root ? cJSON_GetObjectItemCaseSensitive(root, "objects") : NULL;
+    cJSON *plane = objects ? cJSON_GetArrayItem(objects, 0) : NULL;
     char *out = NULL;
-    if (light) {
-        cJSON *loc = cJSON_CreateDoubleArray(location, 3);
-        cJSON_ReplaceItemInObjectCaseSensitive(light, "location", loc);
+    if (light && plane) {
+        cJSON_ReplaceItemInObjectCaseSensitive(light, "location",
+                                               cJSON_CreateDoubleArray(vs->light, 3));
+        if (view_moves_texture(vs)) {
+            cJSON *t = cJSON_CreateObject();
+            double loc[3] = {vs->shift[0], vs->shift[1], 0.0}, rot[3] = {0.0, 0.0, vs->rotate};
+            cJSON_AddItemToObject(t, "location", cJSON_CreateDoubleArray(loc, 3));
+            cJSON_AddItemToObject(t, "rotation_euler", cJSON_CreateDoubleArray(rot, 3));
+            cJSON_DeleteItemFromObjectCaseSensitive(plane, "transform");
+            cJSON_AddItemToObject(plane, "transform", t);
+        }
         out = cJSON_PrintUnformatted(root);
     }
     cJSON_Delete(root);
@@ -284,8 +312,8 @@ static int make_view(worker *w, const render_material *m, long long id, int view
     const render_scene *scene = vs.flash ? sh->flash_scene : sh->scene;
     render_scene *own = NULL;
     const double *unmoved = vs.flash ? sh->flash_light : sh->base_light;
-    if (memcmp(vs.light, unmoved, sizeof vs.light)) {
-        char *text = scene_with_light(vs.flash ? sh->flash_text : sh->scene_text, vs.light);
+    if (memcmp(vs.light, unmoved, sizeof vs.light) || view_moves_texture(&vs)) {
+        char *text = scene_for_view(vs.flash ? sh->flash_text : sh->scene_text, &vs);
         char msg[512] = "out of memory";
         own = text ? render_scene_load_json(text, strlen(text), "augmented scene", msg, sizeof msg)
                    : NULL;
@@ -402,6 +430,11 @@ static char *config_json(const datagen_options *o, const shared *sh, const char 
     cJSON_AddNumberToObject(a, "flash", o->augment.flash);
     cJSON_AddNumberToObject(a, "exposure", o->augment.exposure);
     cJSON_AddNumberToObject(a, "wb", o->augment.wb);
+    if (o->augment.rotate > 0 || o->augment.shift > 0) {
+        /* Only when used: configs made before these existed keep their hash. */
+        cJSON_AddNumberToObject(a, "rotate", o->augment.rotate);
+        cJSON_AddNumberToObject(a, "shift", o->augment.shift);
+    }
     cJSON_AddStringToObject(c, "images",
                             o->images == DATAGEN_IMAGES_NONE    ? "none"
                             : o->images == DATAGEN_IMAGES_PNG16 ? "png16-linear"

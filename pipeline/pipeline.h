@@ -86,15 +86,18 @@ typedef enum datagen_images { DATAGEN_IMAGES_NONE, DATAGEN_IMAGES_PNG16, DATAGEN
 typedef enum datagen_descriptor { DATAGEN_DESC_NONE, DATAGEN_DESC_VGG19_F16 } datagen_descriptor;
 
 /* Augmentation: extra views of every sample (same parameters, another image). Parsed from
- * a spec "views=K,light=J,flash=F,exposure=E,wb=W" (datagen_augment_parse):
+ * a spec "views=K,light=J,flash=F,exposure=E,wb=W,rotate=D,shift=S" (datagen_augment_parse):
  *   views     extra views per sample (0: none; view 0 is always the plain scene)
  *   light     light position jitter, metres (uniform in a cube of that half-size)
  *   flash     probability that an extra view uses the flash scene (light at the camera)
  *   exposure  exposure jitter in stops (uniform in [-E, E])
- *   wb        white-balance jitter: each of R and B scaled by 2^u, u uniform in [-W, W] */
+ *   wb        white-balance jitter: each of R and B scaled by 2^u, u uniform in [-W, W]
+ *   rotate    texture-space rotation about the plane's normal, degrees (uniform in [-D, D])
+ *   shift     texture-space offset in x and y, metres (uniform in [-S, S]); rotate and shift
+ *             set the plane's object transform (render/scene.c), as Blender's would */
 typedef struct datagen_augment {
     int views;
-    float light, flash, exposure, wb;
+    float light, flash, exposure, wb, rotate, shift;
 } datagen_augment;
 
 /* Parses spec into a (all zero when spec is NULL or ""). -1 with a message on error. */

@@ -196,7 +196,8 @@ static void batch_geometry(batch *b, sg_geometry_batch *gb)
         const shading_geometry *g = &b->geo[i];
         const float *src[FIELDS] = {g->P, g->dPdx, g->dPdy, g->N, g->Ng, g->I, g->generated,
                                     g->dgenerated_dx, g->dgenerated_dy, g->uv, g->duv_dx,
-                                    g->duv_dy, g->P, g->dPdx, g->dPdy, g->N};
+                                    g->duv_dy, g->object, g->dobject_dx, g->dobject_dy,
+                                    g->object_normal};
         for (int k = 0; k < FIELDS; k++)
             for (int c = 0; c < 3; c++)
                 field[k][c * n + i] = src[k][c];

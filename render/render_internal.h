@@ -125,14 +125,22 @@ int point_light_intersect(const point_light *l, const float P[3], const float wi
 
 /* ---- scene ----------------------------------------------------------------------- */
 
-/* A mesh in world space (objects carry the identity transform: object coordinates are
- * world coordinates). Triangles only; quads are split on load. */
+/* A mesh in world space. Its object transform (Blender's matrix_world: world = R o + t,
+ * from the scene file's optional "transform") moves its texture space, not its geometry:
+ * Object coordinates are R^T (P - t) and Generated coordinates span the object-space
+ * bounding box, as in Blender for an object whose mesh was counter-transformed. Without a
+ * transform, object space is world space, bit for bit. Triangles only; quads are split
+ * on load. */
 typedef struct render_mesh {
     int n_vertices, n_triangles;
-    float *vertices; /* 3 per vertex */
+    float *vertices; /* 3 per vertex, world space */
     float *uv;       /* 2 per vertex, may be NULL (then uv = 0) */
     unsigned *triangles;
-    float bbox_min[3], bbox_max[3]; /* for Generated coordinates */
+    int has_transform;
+    float rotation[9];              /* R, row-major */
+    float location[3];              /* t */
+    float *object_vertices;         /* 3 per vertex, object space (= vertices without one) */
+    float bbox_min[3], bbox_max[3]; /* object space, for Generated coordinates */
 } render_mesh;
 
 struct render_scene {
@@ -154,6 +162,7 @@ typedef struct shading_geometry {
     float P[3], dPdx[3], dPdy[3], N[3], Ng[3], I[3];
     float generated[3], dgenerated_dx[3], dgenerated_dy[3];
     float uv[3], duv_dx[3], duv_dy[3];
+    float object[3], dobject_dx[3], dobject_dy[3], object_normal[3]; /* object space */
 } shading_geometry;
 
 /* Fills g for a hit on mesh `mesh`, triangle `prim` at barycentrics (bu, bv) (Embree's:

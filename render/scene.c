@@ -98,6 +98,60 @@ static int load_camera(const loader *ld, const cJSON *root, render_scene *s)
     return 0;
 }
 
+/* o = R^T (p - t); identity (a copy) without a transform. */
+static void world_to_object_point(const render_mesh *m, const float p[3], float o[3])
+{
+    if (!m->has_transform) {
+        memcpy(o, p, 3 * sizeof(float));
+        return;
+    }
+    float d[3] = {p[0] - m->location[0], p[1] - m->location[1], p[2] - m->location[2]};
+    for (int r = 0; r < 3; r++)
+        o[r] = m->rotation[r] * d[0] + m->rotation[3 + r] * d[1] + m->rotation[6 + r] * d[2];
+}
+
+/* d_obj = R^T d, for directions and differentials. */
+static void world_to_object_vector(const render_mesh *m, const float d[3], float o[3])
+{
+    if (!m->has_transform) {
+        memcpy(o, d, 3 * sizeof(float));
+        return;
+    }
+    for (int r = 0; r < 3; r++)
+        o[r] = m->rotation[r] * d[0] + m->rotation[3 + r] * d[1] + m->rotation[6 + r] * d[2];
+}
+
+/* "transform": {"location": [x, y, z], "rotation_euler": [rx, ry, rz]} (radians, Blender's
+ * XYZ order: R = Rz Ry Rx), both optional. */
+static int load_transform(const loader *ld, const cJSON *o, const char *where, render_mesh *m)
+{
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(o, "transform");
+    m->has_transform = 0;
+    if (!t)
+        return 0;
+    char w[96];
+    snprintf(w, sizeof w, "%s.transform", where);
+    if (!cJSON_IsObject(t))
+        return fail(ld, "%s: expected an object with location and rotation_euler", w);
+    float loc[3] = {0, 0, 0}, rot[3] = {0, 0, 0};
+    if (cJSON_GetObjectItemCaseSensitive(t, "location") &&
+        get_floats(ld, t, "location", w, loc, 3) < 0)
+        return -1;
+    if (cJSON_GetObjectItemCaseSensitive(t, "rotation_euler") &&
+        get_floats(ld, t, "rotation_euler", w, rot, 3) < 0)
+        return -1;
+    double cx = cos(rot[0]), sx = sin(rot[0]), cy = cos(rot[1]), sy = sin(rot[1]);
+    double cz = cos(rot[2]), sz = sin(rot[2]);
+    double R[9] = {cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx,
+                   sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx,
+                   -sy,     cy * sx,                cy * cx};
+    for (int k = 0; k < 9; k++)
+        m->rotation[k] = (float)R[k];
+    memcpy(m->location, loc, sizeof loc);
+    m->has_transform = 1;
+    return 0;
+}
+
 static int load_mesh(const loader *ld, const cJSON *o, int index, render_mesh *m)
 {
     char where[64];
@@ -179,14 +233,21 @@ static int load_mesh(const loader *ld, const cJSON *o, int index, render_mesh *m
             }
         }
     }
+    if (load_transform(ld, o, where, m) < 0)
+        return -1;
+    m->object_vertices = malloc(sizeof(float) * 3 * (size_t)nv);
+    if (!m->object_vertices)
+        return fail(ld, "out of memory");
+    for (int i = 0; i < nv; i++)
+        world_to_object_point(m, &m->vertices[3 * i], &m->object_vertices[3 * i]);
     for (int k = 0; k < 3; k++) {
         m->bbox_min[k] = INFINITY;
         m->bbox_max[k] = -INFINITY;
     }
     for (int i = 0; i < nv; i++)
         for (int k = 0; k < 3; k++) {
-            m->bbox_min[k] = fminf(m->bbox_min[k], m->vertices[3 * i + k]);
-            m->bbox_max[k] = fmaxf(m->bbox_max[k], m->vertices[3 * i + k]);
+            m->bbox_min[k] = fminf(m->bbox_min[k], m->object_vertices[3 * i + k]);
+            m->bbox_max[k] = fmaxf(m->bbox_max[k], m->object_vertices[3 * i + k]);
         }
     return 0;
 }
@@ -390,6 +451,7 @@ void render_scene_free(render_scene *s)
         rtcReleaseDevice(s->device);
     for (int i = 0; i < s->n_meshes; i++) {
         free(s->meshes[i].vertices);
+        free(s->meshes[i].object_vertices);
         free(s->meshes[i].uv);
         free(s->meshes[i].triangles);
     }
@@ -450,9 +512,15 @@ void render_shading_geometry(const render_scene *s, int mesh, unsigned prim, flo
         g->dPdx[k] = dP * a[k];
         g->dPdy[k] = dP * b[k];
     }
-    /* Generated: bounding box to [0, 1], a flat axis at 0.5. */
+    /* Object space: the transform's inverse (a copy without one). */
+    world_to_object_point(m, g->P, g->object);
+    world_to_object_vector(m, g->dPdx, g->dobject_dx);
+    world_to_object_vector(m, g->dPdy, g->dobject_dy);
+    world_to_object_vector(m, g->N, g->object_normal);
+    /* Generated: the object-space bounding box to [0, 1], a flat axis at 0.5. */
     float gen[3][3], uv[3][3];
-    const float *vs[3] = {v0, v1, v2};
+    const float *vs[3] = {&m->object_vertices[3 * tri[0]], &m->object_vertices[3 * tri[1]],
+                          &m->object_vertices[3 * tri[2]]};
     for (int c = 0; c < 3; c++)
         for (int k = 0; k < 3; k++) {
             float ext = m->bbox_max[k] - m->bbox_min[k];

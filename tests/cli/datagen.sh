@@ -14,7 +14,7 @@ same_digest() { # description, dataset, dataset
         echo "FAIL: $1: digests $a and $b"; failures=$((failures + 1)); fi
 }
 quick=${IMSYNTH_TEST_QUICK:-}
-aug="views=1,light=0.1,flash=0.5,exposure=0.5,wb=0.1"
+aug="views=1,light=0.1,flash=0.5,exposure=0.5,wb=0.1,rotate=30,shift=0.3"
 common="--preset draft --first-id 100 --quiet"
 
 "$imsynth" datagen --help > "$tmp/out"; check "datagen --help" 0 $?

@@ -517,6 +517,74 @@ static void test_fast_matches_reference(void **state)
     render_scene_free(s);
 }
 
+/* An object transform moves the texture space (Blender: matrix_world with the mesh
+ * counter-transformed), not the geometry: Object coordinates are R^T (P - t), the object
+ * normal R^T N, Generated spans the object-space bounding box; P, N and UV are untouched.
+ * Without a transform, object space is world space bit for bit. */
+static void test_object_transform(void **state)
+{
+    (void)state;
+    char text[4096], err[512];
+    FILE *f = fopen(IMSYNTH_SOURCE_DIR "/assets/scene.json", "rb");
+    assert_non_null(f);
+    char base[4096];
+    size_t n = fread(base, 1, sizeof base - 1, f);
+    fclose(f);
+    base[n] = 0;
+    const char *anchor = "\"faces\": [[0, 1, 2, 3]]";
+    char *at = strstr(base, anchor);
+    assert_non_null(at);
+    size_t head = (size_t)(at - base) + strlen(anchor);
+    snprintf(text, sizeof text, "%.*s, \"transform\": {\"location\": [0.3, -0.2, 0], "
+             "\"rotation_euler\": [0, 0, 0.5]}%s", (int)head, base, base + head);
+    render_scene *t = render_scene_load_json(text, strlen(text), "rotated.json", err, sizeof err);
+    if (!t)
+        fail_msg("%s", err);
+    render_scene *s = render_scene_load(IMSYNTH_SOURCE_DIR "/assets/scene.json", err, sizeof err);
+    assert_non_null(s);
+    const double c = cos(0.5), sn = sin(0.5);
+    double bmin[2] = {INFINITY, INFINITY}, bmax[2] = {-INFINITY, -INFINITY};
+    const double corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int k = 0; k < 4; k++) { /* the object-space bounding box of the counter-rotated plane */
+        double dx = corners[k][0] - 0.3, dy = corners[k][1] + 0.2;
+        double ox = c * dx + sn * dy, oy = -sn * dx + c * dy;
+        bmin[0] = fmin(bmin[0], ox), bmax[0] = fmax(bmax[0], ox);
+        bmin[1] = fmin(bmin[1], oy), bmax[1] = fmax(bmax[1], oy);
+    }
+    const float hits[3][2] = {{0.25f, 0.25f}, {0.4f, 0.1f}, {0.7f, 0.9f}};
+    for (int i = 0; i < 3; i++) {
+        float D[3] = {0, 0, -1};
+        shading_geometry g, h;
+        render_shading_geometry(t, 0, 0, hits[i][0], hits[i][1], D, 0.01f, &g);
+        render_shading_geometry(s, 0, 0, hits[i][0], hits[i][1], D, 0.01f, &h);
+        assert_memory_equal(g.P, h.P, sizeof g.P);
+        assert_memory_equal(g.N, h.N, sizeof g.N);
+        assert_memory_equal(g.uv, h.uv, sizeof g.uv);
+        /* Identity: object space is world space, bit for bit. */
+        assert_memory_equal(h.object, h.P, sizeof h.P);
+        assert_memory_equal(h.dobject_dx, h.dPdx, sizeof h.P);
+        assert_memory_equal(h.object_normal, h.N, sizeof h.N);
+        double dx = g.P[0] - 0.3, dy = g.P[1] + 0.2;
+        double ox = c * dx + sn * dy, oy = -sn * dx + c * dy;
+        assert_true(fabs(g.object[0] - ox) < 1e-6 && fabs(g.object[1] - oy) < 1e-6);
+        assert_true(fabs(g.object[2] - g.P[2]) < 1e-6);
+        double ddx = c * g.dPdx[0] + sn * g.dPdx[1], ddy = -sn * g.dPdx[0] + c * g.dPdx[1];
+        assert_true(fabs(g.dobject_dx[0] - ddx) < 1e-7 && fabs(g.dobject_dx[1] - ddy) < 1e-7);
+        assert_true(fabs(g.object_normal[2] - 1.0) < 1e-6);
+        for (int k = 0; k < 2; k++) {
+            double gen = (g.object[k] - bmin[k]) / (bmax[k] - bmin[k]);
+            assert_true(fabs(g.generated[k] - gen) < 1e-5);
+        }
+    }
+    /* A bad transform is named by its path. */
+    snprintf(text, sizeof text, "%.*s, \"transform\": {\"location\": [0, 0]}%s", (int)head,
+             base, base + head);
+    assert_null(render_scene_load_json(text, strlen(text), "bad.json", err, sizeof err));
+    assert_non_null(strstr(err, "objects[0].transform"));
+    render_scene_free(t);
+    render_scene_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -526,6 +594,7 @@ int main(void)
         cmocka_unit_test(test_sampler),
         cmocka_unit_test(test_light_irradiance),
         cmocka_unit_test(test_scene_errors),
+        cmocka_unit_test(test_object_transform),
         cmocka_unit_test(test_threads_do_not_change_bits),
         cmocka_unit_test(test_fast_film_weights),
         cmocka_unit_test(test_fast_film_filter_limit),
