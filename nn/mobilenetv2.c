@@ -5,7 +5,7 @@
  * Activations are CHW planes of one image (channel after channel, rows top first). The
  * 1x1 convolutions are sgemms: out (K, HW) = W (K, C) . in (C, HW). The depthwise 3x3
  * and Conv1 are written out here (depthwise.c). Every image is computed by one worker
- * thread from start to end with single-threaded sgemms, so a descriptor does not depend
+ * thread from start to end with OpenBLAS single-threaded (nn.h), so a descriptor does not depend
  * on how many threads there are or which one took it.
  */
 #include <assert.h>

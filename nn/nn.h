@@ -213,7 +213,9 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
  * mnv2_options.signed_input (Keras' ImageNet preprocess_input).
  *
  * Results do not depend on the thread count: every image is computed by one worker
- * from start to end, with single-threaded sgemms in a fixed order.
+ * from start to end, with sgemms in a fixed order, provided OpenBLAS itself runs
+ * single-threaded (OPENBLAS_NUM_THREADS=1 or openblas_set_num_threads(1)): a threaded
+ * OpenBLAS splits its sums differently (measured: other bits).
  */
 
 enum {
@@ -264,7 +266,7 @@ typedef struct mnv2_options {
     int scales;       /* 1: the 224 crop; 2: also the crop box-averaged to 112 */
     int signed_input; /* feed 2x - 1 instead of x (see above) */
     int threads;      /* workers, each one image at a time; 0 = 1. Pin OpenBLAS to one
-                       * thread when > 1 (see vgg_options.threads). */
+                       * thread whatever this is (see above). */
 } mnv2_options;
 
 /* Where each (scale, tap) Gram starts in a row, offsets[scales * ntaps] = row length. */
