@@ -51,8 +51,8 @@ static const char *const help =
     "  --weights F.safetensors    default assets/mobilenetv2/mobilenetv2_block10.safetensors\n"
     "  --taps LIST                comma-separated: conv1, block_N_expand (N 1..10),\n"
     "                             block_N_depthwise, block_N_project (N 0..10); default\n"
-    "                             block_1_expand,block_3_expand,block_6_expand,block_10_project\n"
-    "                             (38,280 floats)\n"
+    "                             conv1,block_1_expand,block_3_expand,block_6_expand,\n"
+    "                             block_10_project (38,808 floats)\n"
     "  --scales 1|2               2: also the 224 crop box-averaged to 112 (default 1)\n"
     "  --input-range unit|signed  network input in [0,1] (default; what the weights' BatchNorm\n"
     "                             statistics fit) or 2x-1 (Keras' ImageNet scaling)\n";

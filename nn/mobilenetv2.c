@@ -21,7 +21,8 @@
 #include "nn/depthwise.h"
 #include "nn/nn.h"
 
-const char mnv2_default_taps[] = "block_1_expand,block_3_expand,block_6_expand,block_10_project";
+const char mnv2_default_taps[] =
+    "conv1,block_1_expand,block_3_expand,block_6_expand,block_10_project";
 
 /* Keras MobileNetV2 alpha 1.0, blocks 0..10: expansion, output channels, stride. */
 static const int block_expansion[MNV2_BLOCKS] = {1, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6};

@@ -202,9 +202,12 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
  * The descriptor: Gram G = F F^T / (H W) of each tapped activation, upper triangle with
  * diagonal row by row (gram_upper_forward's layout, as VGG19's), concatenated in tap order,
  * then the same again for the second scale if asked (the 224 input box-averaged 2x2 to
- * 112). Default taps, one per resolution, each the widest activation there:
- * block_1_expand (96 ch at 112), block_3_expand (144 at 56), block_6_expand (192 at 28),
- * block_10_project (96 at 14): 4656 + 10440 + 18528 + 4656 = 38,280 floats per scale.
+ * 112). Default taps: conv1 (32 ch at 112: the colours, which the deeper taps barely
+ * keep), then one per resolution, each the widest activation there: block_1_expand (96
+ * ch at 112), block_3_expand (144 at 56), block_6_expand (192 at 28), block_10_project
+ * (96 at 14): 528 + 4656 + 10440 + 18528 + 4656 = 38,808 floats per scale. Why these:
+ * BENCHMARKS.md, "MobileNetV2 descriptor" (conv1 halves the colour error of retrieval at
+ * no cost in offset invariance).
  *
  * Input: the linear image clamped to [0,1], sRGB-encoded (the network was trained on
  * sRGB photos), centre-cropped to 224 like VGG's, in [0,1]: the scaling nsfwjs feeds
@@ -222,7 +225,7 @@ enum {
     MNV2_INPUT_SIZE = 224,
     MNV2_BLOCKS = 11,              /* expanded_conv (block 0) .. block_10 */
     MNV2_MAX_TAPS = 1 + 2 + 3 * 10, /* conv1; block 0 has no expand; three per block after */
-    MNV2_DEFAULT_DESCRIPTOR_SIZE = 38280,
+    MNV2_DEFAULT_DESCRIPTOR_SIZE = 38808,
 };
 
 /* Where a tap reads: after Conv1's ReLU6 ("conv1"), after block i's expand ReLU6
@@ -235,7 +238,7 @@ typedef struct mnv2_tap {
     mnv2_point point;
 } mnv2_tap;
 
-extern const char mnv2_default_taps[]; /* "block_1_expand,block_3_expand,..." */
+extern const char mnv2_default_taps[]; /* "conv1,block_1_expand,block_3_expand,..." */
 
 /* The network's folded weights and shapes (read from the file, checked to chain). */
 typedef struct mobilenetv2 {

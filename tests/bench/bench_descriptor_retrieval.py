@@ -92,10 +92,10 @@ def parse_columns(stdout):
 
 DESCRIPTORS = {
     "vgg19": ["--features", "vgg19"],
-    "mnv2": ["--features", "mobilenetv2"],
+    "mnv2": ["--features", "mobilenetv2"],  # the default taps, conv1 included
     "mnv2x2": ["--features", "mobilenetv2", "--scales", "2"],
-    "mnv2+conv1": ["--features", "mobilenetv2", "--taps",
-                   "conv1,block_1_expand,block_3_expand,block_6_expand,block_10_project"],
+    "mnv2-noconv1": ["--features", "mobilenetv2", "--taps",
+                     "block_1_expand,block_3_expand,block_6_expand,block_10_project"],
 }
 
 

@@ -18,11 +18,11 @@ weights="$root/assets/mobilenetv2/mobilenetv2_block10.safetensors"
 "$imsynth" eval-graph "$root/assets/examples/marble.json" --socket "Principled BSDF:Base Color" \
     -o "$tmp/b.exr" --png "$tmp/b.png" --size 40 > /dev/null; check "make a small PNG" 0 $?
 
-# Default taps: 38,280 floats a row; .npy = 128-byte header + rows * 38280 * 4.
+# Default taps: 38,808 floats a row; .npy = 128-byte header + rows * 38808 * 4.
 "$imsynth" describe "$tmp/a.exr" "$tmp/b.png" -o "$tmp/d.npy" --features mobilenetv2 \
     --weights "$weights" --threads 2 --batch 2 > "$tmp/out"; check "describe two images" 0 $?
-expect_size "default descriptor size" "$tmp/d.npy" $((128 + 2 * 38280 * 4))
-expect_stdout "tap columns" "block_10_project@224  columns 33624..38279"
+expect_size "default descriptor size" "$tmp/d.npy" $((128 + 2 * 38808 * 4))
+expect_stdout "tap columns" "block_10_project@224  columns 34152..38807"
 "$imsynth" describe "$tmp/a.exr" "$tmp/b.png" -o "$tmp/e.npy" --features mobilenetv2 \
     --weights "$weights" --threads 1 --batch 1 > /dev/null; check "1 thread, batch 1" 0 $?
 cmp -s "$tmp/d.npy" "$tmp/e.npy" && echo "ok: same bits" || { echo "FAIL: batch/threads changed the output"; failures=$((failures + 1)); }

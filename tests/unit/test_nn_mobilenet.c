@@ -98,7 +98,7 @@ static void test_default_taps_against_torch(void **state)
     size_t off[2 * MNV2_MAX_TAPS + 1];
     size_t row = mnv2_descriptor_offsets(&net, &opt, off);
     assert_int_equal(row, 2 * MNV2_DEFAULT_DESCRIPTOR_SIZE);
-    assert_int_equal(off[4], MNV2_DEFAULT_DESCRIPTOR_SIZE);
+    assert_int_equal(off[5], MNV2_DEFAULT_DESCRIPTOR_SIZE);
 
     int ndim = 0, u8 = 0;
     long shape[4];
@@ -113,7 +113,7 @@ static void test_default_taps_against_torch(void **state)
     mnv2_describe(ws, input, 2, got);
     for (int k = 0; k < 2; k++) {
         int seg = -1;
-        double e = worst_tap_error(got + k * row, want + k * row, off, 8, &seg);
+        double e = worst_tap_error(got + k * row, want + k * row, off, 10, &seg);
         printf("default taps, image %d: worst per-tap relative error %.3g (segment %d)\n", k,
                e, seg);
         assert_true(e <= TOLERANCE);
@@ -204,11 +204,12 @@ static void test_tap_lists(void **state)
 {
     mnv2_tap taps[MNV2_MAX_TAPS];
     char err[256], name[64];
-    assert_int_equal(mnv2_taps_parse(mnv2_default_taps, taps, err, sizeof err), 4);
-    assert_int_equal(taps[0].block, 1);
-    assert_int_equal(taps[0].point, MNV2_EXPAND);
-    assert_int_equal(taps[3].block, 10);
-    assert_int_equal(taps[3].point, MNV2_PROJECT);
+    assert_int_equal(mnv2_taps_parse(mnv2_default_taps, taps, err, sizeof err), 5);
+    assert_int_equal(taps[0].point, MNV2_CONV1);
+    assert_int_equal(taps[1].block, 1);
+    assert_int_equal(taps[1].point, MNV2_EXPAND);
+    assert_int_equal(taps[4].block, 10);
+    assert_int_equal(taps[4].point, MNV2_PROJECT);
     /* every tap, in the names mnv2_tap_name gives, parses back to itself */
     char all[2048] = "conv1";
     for (int b = 0; b < MNV2_BLOCKS; b++)

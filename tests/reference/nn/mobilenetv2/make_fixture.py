@@ -12,7 +12,7 @@ stride 1 and cin == cout. Grams G = F F^T / (H W), upper triangle with diagonal 
 row, concatenated in tap order (then the second scale).
 
 Writes, beside this script:
-  expected_default.npy  (2, 76560) float32: the default taps (block_1_expand,
+  expected_default.npy  (2, 77616) float32: the default taps (conv1, block_1_expand,
       block_3_expand, block_6_expand, block_10_project) at 224 and at 112 (the 224 input
       box-averaged 2x2), of tests/reference/nn/images_u8.npy's two 256x256 images taken
       as LINEAR light: image 0 = u8/255, image 1 = u8/255 * 1.5 - 0.25 (out of [0,1]:
@@ -42,7 +42,7 @@ ROOT = os.path.normpath(os.path.join(HERE, "..", "..", "..", ".."))
 WEIGHTS = os.path.join(ROOT, "assets", "mobilenetv2", "mobilenetv2_block10.safetensors")
 IMAGES = os.path.join(ROOT, "tests", "reference", "nn", "images_u8.npy")
 STRIDE = [1, 2, 1, 2, 1, 1, 2, 1, 1, 1, 1]
-DEFAULT_TAPS = ["block_1_expand", "block_3_expand", "block_6_expand", "block_10_project"]
+DEFAULT_TAPS = ["conv1", "block_1_expand", "block_3_expand", "block_6_expand", "block_10_project"]
 TAPS64 = ["conv1", "expanded_conv_depthwise", "expanded_conv_project", "block_1_depthwise",
           "block_2_project", "block_4_expand", "block_5_project", "block_6_depthwise",
           "block_9_project", "block_10_project"]
