@@ -33,24 +33,38 @@ static inline float window_s1(const float *r0, const float *r1, const float *r2,
 static void depthwise_s1(float *restrict out, const float *restrict in, const float *w,
                          float b, int H, const float *zero)
 {
-    // in (H,H) -> out (H,H), pad 1
+    // in (H,H) -> out (H,H), pad 1. The interior rows 1..H-2 as ONE run of the plane,
+    // each point p reading p-H-1 .. p+H+1: long contiguous loops whatever H is (14 wide
+    // rows would leave most of a 16-float vector idle). Columns 0 and H-1 of those rows
+    // read across the row boundary there and are recomputed with the border sum after;
+    // rows 0 and H-1 are done with the border sum too. Every output is the same
+    // expression as window_s1's, so the values do not depend on which path made them.
     const float w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4], w5 = w[5], w6 = w[6],
                 w7 = w[7], w8 = w[8];
-    for (int y = 0; y < H; y++) {
-        const float *restrict r0 = y > 0 ? in + (size_t)(y - 1) * H : zero;
-        const float *restrict r1 = in + (size_t)y * H;
-        const float *restrict r2 = y + 1 < H ? in + (size_t)(y + 1) * H : zero;
-        float *restrict o = out + (size_t)y * H;
-        o[0] = window_s1(r0, r1, r2, w, b, 0, H);
-        for (int x = 1; x < H - 1; x++) {
-            float s = b + w0 * r0[x - 1] + w1 * r0[x] + w2 * r0[x + 1];
-            s = s + w3 * r1[x - 1] + w4 * r1[x] + w5 * r1[x + 1];
-            s = s + w6 * r2[x - 1] + w7 * r2[x] + w8 * r2[x + 1];
+    if (H >= 3) {
+        size_t n = (size_t)(H - 2) * H;
+        const float *restrict r0 = in, *restrict r1 = in + H, *restrict r2 = in + 2 * (size_t)H;
+        float *restrict o = out + H;
+        for (size_t p = 1; p + 1 < n; p++) {
+            float s = b + w0 * r0[p - 1] + w1 * r0[p] + w2 * r0[p + 1];
+            s = s + w3 * r1[p - 1] + w4 * r1[p] + w5 * r1[p + 1];
+            s = s + w6 * r2[p - 1] + w7 * r2[p] + w8 * r2[p + 1];
             s = s > 0.0f ? s : 0.0f;
-            o[x] = s < 6.0f ? s : 6.0f;
+            o[p] = s < 6.0f ? s : 6.0f;
         }
-        if (H > 1)
+    }
+    for (int y = 0; y < H; y++) {
+        const float *r0 = y > 0 ? in + (size_t)(y - 1) * H : zero;
+        const float *r1 = in + (size_t)y * H;
+        const float *r2 = y + 1 < H ? in + (size_t)(y + 1) * H : zero;
+        float *o = out + (size_t)y * H;
+        if (y == 0 || y == H - 1) {
+            for (int x = 0; x < H; x++)
+                o[x] = window_s1(r0, r1, r2, w, b, x, H);
+        } else {
+            o[0] = window_s1(r0, r1, r2, w, b, 0, H);
             o[H - 1] = window_s1(r0, r1, r2, w, b, H - 1, H);
+        }
     }
 }
 

@@ -380,26 +380,30 @@ void mnv2_workspace_free(mnv2_workspace *ws)
 
 /* ------------------------------------------------------------ forward ------------- */
 
-/* x = min(max(x, 0), 6) over n floats. */
-static void relu6_forward(float *x, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        float v = x[i] > 0.0f ? x[i] : 0.0f;
-        x[i] = v < 6.0f ? v : 6.0f;
-    }
-}
-
-/* out (K, HW) = w (K, C) . in (C, HW) + b, one single-threaded sgemm. */
+/* out (K, HW) = w (K, C) . in (C, HW) + b, then ReLU6 (relu6) or + residual (K, HW)
+ * when not NULL: one single-threaded sgemm and one pass over the output. */
 static void pointwise_forward(float *out, const float *in, const float *w, const float *b,
-                              int K, int C, int HW)
+                              int K, int C, int HW, int relu6, const float *residual)
 {
-    for (int k = 0; k < K; k++) {
-        float *o = out + (size_t)k * HW;
-        for (int p = 0; p < HW; p++)
-            o[p] = b[k];
-    }
-    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, HW, C, 1.0f, w, C, in, HW, 1.0f,
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, K, HW, C, 1.0f, w, C, in, HW, 0.0f,
                 out, HW);
+    for (int k = 0; k < K; k++) {
+        float *restrict o = out + (size_t)k * HW;
+        const float bk = b[k];
+        if (relu6)
+            for (int p = 0; p < HW; p++) {
+                float v = o[p] + bk;
+                v = v > 0.0f ? v : 0.0f;
+                o[p] = v < 6.0f ? v : 6.0f;
+            }
+        else if (residual) {
+            const float *restrict r = residual + (size_t)k * HW;
+            for (int p = 0; p < HW; p++)
+                o[p] = (o[p] + bk) + r[p];
+        } else
+            for (int p = 0; p < HW; p++)
+                o[p] += bk;
+    }
 }
 
 /* The Gram of tap `point` of block b (if it is one) at scale s into the descriptor row. */
@@ -423,8 +427,8 @@ static void forward_one(const mnv2_workspace *ws, worker *w, int S, int scale, f
     int H = S / 2;
     size_t HW = (size_t)H * H;
     conv1_im2col(w->e, w->input, S, w->zero);
-    pointwise_forward(w->x, w->e, net->conv1_w, net->conv1_b, CONV1_CHANNELS, 27, (int)HW);
-    relu6_forward(w->x, CONV1_CHANNELS * HW);
+    pointwise_forward(w->x, w->e, net->conv1_w, net->conv1_b, CONV1_CHANNELS, 27, (int)HW, 1,
+                      NULL);
     maybe_tap(ws, w, scale, 0, MNV2_CONV1, w->x, CONV1_CHANNELS, (int)HW, row);
     float *x = w->x, *y = w->y;
     for (int b = 0; b < MNV2_BLOCKS; b++) {
@@ -434,8 +438,8 @@ static void forward_one(const mnv2_workspace *ws, worker *w, int S, int scale, f
         // expand: x (cin, HW) -> e (cexp, HW), ReLU6; block 0 depthwise-convolves x itself
         const float *e = x;
         if (net->expand_w[b]) {
-            pointwise_forward(w->e, x, net->expand_w[b], net->expand_b[b], cexp, cin, (int)HW);
-            relu6_forward(w->e, (size_t)cexp * HW);
+            pointwise_forward(w->e, x, net->expand_w[b], net->expand_b[b], cexp, cin, (int)HW,
+                              1, NULL);
             maybe_tap(ws, w, scale, b, MNV2_EXPAND, w->e, cexp, (int)HW, row);
             e = w->e;
         }
@@ -446,10 +450,8 @@ static void forward_one(const mnv2_workspace *ws, worker *w, int S, int scale, f
                                        net->stride[b], w->zero);
         maybe_tap(ws, w, scale, b, MNV2_DEPTHWISE, w->d, cexp, (int)OHW, row);
         // project: d (cexp, OHW) -> y (cout, OHW), + x when the block is residual
-        pointwise_forward(y, w->d, net->project_w[b], net->project_b[b], cout, cexp, (int)OHW);
-        if (has_residual(net, b))
-            for (size_t i = 0; i < (size_t)cout * OHW; i++)
-                y[i] += x[i];
+        pointwise_forward(y, w->d, net->project_w[b], net->project_b[b], cout, cexp, (int)OHW,
+                          0, has_residual(net, b) ? x : NULL);
         maybe_tap(ws, w, scale, b, MNV2_PROJECT, y, cout, (int)OHW, row);
         float *t = x;
         x = y;
