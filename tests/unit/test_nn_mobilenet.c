@@ -331,6 +331,45 @@ static void test_broken_weight_files(void **state)
     mnv2_free(&net);
 }
 
+/* Preprocessing: clamp (NaN to 0), the sRGB curve at known points, centre crop, grey
+ * replicated, alpha dropped, too small refused. */
+static void test_preprocess(void **state)
+{
+    const int W = 230, H = 226; /* crop origin: x0 = 3, y0 = 1 */
+    float *px = malloc((size_t)W * H * 4 * sizeof(float)), *out = malloc(3 * 224 * 224 * 4);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 4; c++)
+                px[((size_t)y * W + x) * 4 + c] = c == 3 ? 0.5f : (float)(x + y + c) / 400.0f;
+    px[((size_t)2 * W + 3) * 4 + 0] = NAN;   /* output row 1, column 0, channel 0 */
+    px[((size_t)1 * W + 3) * 4 + 1] = 2.0f;  /* output row 0, column 0, channel 1 */
+    px[((size_t)1 * W + 4) * 4 + 2] = -1.0f; /* output row 0, column 1, channel 2 */
+    assert_int_equal(mnv2_preprocess(out, px, W, H, 4), 0);
+    const size_t plane = 224 * 224;
+    assert_true(out[224] == 0.0f);          /* NaN -> 0 */
+    assert_true(fabs(out[plane] - 1.0) < 1e-6); /* 2 -> 1 -> sRGB 1 (to rounding) */
+    assert_true(out[2 * plane + 1] == 0.0f); /* -1 -> 0 */
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < 50; k++) {
+            int y = 10 + k * 4, x = 7 + k * 3;
+            double v = (double)((x + 3) + (y + 1) + c) / 400.0;
+            double want = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1 / 2.4) - 0.055;
+            assert_true(fabs(out[c * plane + (size_t)y * 224 + x] - want) < 1e-6);
+        }
+    /* grey: channel 0 replicated */
+    assert_int_equal(mnv2_preprocess(out, px, W, H / 4, 1), -1); /* 57 rows: too small */
+    float *grey = malloc(224 * 224 * sizeof(float));
+    for (size_t i = 0; i < plane; i++)
+        grey[i] = 0.25f;
+    assert_int_equal(mnv2_preprocess(out, grey, 224, 224, 1), 0);
+    for (int c = 0; c < 3; c++)
+        assert_true(fabs(out[c * plane + 1000] - (1.055 * pow(0.25, 1 / 2.4) - 0.055)) < 1e-6);
+    assert_int_equal(mnv2_preprocess(out, grey, 224, 224, 5), -1);
+    free(grey);
+    free(px);
+    free(out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -339,6 +378,7 @@ int main(void)
         cmocka_unit_test(test_bits_independent_of_threads_and_batch),
         cmocka_unit_test(test_tap_lists),
         cmocka_unit_test(test_broken_weight_files),
+        cmocka_unit_test(test_preprocess),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
