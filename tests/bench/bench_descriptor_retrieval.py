@@ -25,7 +25,8 @@ analyse  Distance: per Gram layer (tap) squared Euclidean distance divided by th
               of log10 radially averaged luminance power spectra, 24 log-spaced bands:
               shift-invariant, like the descriptors) and pixel RMSE (not shift-invariant:
               it mostly measures colour). Each against a random training render and the
-              best possible (the training render nearest by that judge).
+              best possible (the training render nearest by that judge). Also
+              "vgg19+mnv2": the two distances, each over its mean, summed.
          (c)  agreement: Spearman rank correlation of the descriptors' distances on 20,000
               random pairs, with each other and with each judge.
 """
@@ -196,6 +197,8 @@ def analyse_stage(work, m, seed=0, by="variance"):
         desc = np.load(os.path.join(work, f"desc_{key}.npy"))
         cols = json.load(open(os.path.join(work, f"desc_{key}.columns.json")))
         D[key] = normalised_sqdist(desc, cols, by)
+    # both networks at once: each distance over its mean, summed (equal say)
+    D["vgg19+mnv2"] = D["vgg19"] / D["vgg19"].mean() + D["mnv2"] / D["mnv2"].mean()
     D["pixels"] = pix_d
     timing = json.load(open(os.path.join(work, "timing.json")))
     rng = np.random.default_rng(seed)
@@ -219,7 +222,7 @@ def analyse_stage(work, m, seed=0, by="variance"):
     print("| descriptor | invariance | NN multiplexer agreement | NN colour | NN spectrum | NN RMSE |")
     print("|---|---|---|---|---|---|")
     res = {}
-    for key in list(DESCRIPTORS) + ["pixels"]:
+    for key in list(DESCRIPTORS) + ["vgg19+mnv2", "pixels"]:
         d = D[key].copy()
         np.fill_diagonal(d, np.inf)
         nn_all = d.argmin(axis=1)
