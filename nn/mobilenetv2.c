@@ -28,7 +28,7 @@ const char mnv2_default_taps[] =
 static const int block_expansion[MNV2_BLOCKS] = {1, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6};
 static const int block_cout[MNV2_BLOCKS] = {16, 24, 24, 32, 32, 32, 64, 64, 64, 64, 96};
 static const int block_stride[MNV2_BLOCKS] = {1, 2, 1, 2, 1, 1, 2, 1, 1, 1, 1};
-enum { CONV1_CHANNELS = 32 };
+enum { CONV1_CHANNELS = 32, MAX_THREADS = 256 };
 
 static void set_err(char *err, size_t errlen, const char *fmt, ...)
 {
@@ -324,7 +324,7 @@ mnv2_workspace *mnv2_workspace_create(const mobilenetv2 *net, const mnv2_options
     ws->opt = *opt;
     ws->size = size;
     ws->max_batch = max_batch;
-    ws->threads = opt->threads < 1 ? 1 : opt->threads;
+    ws->threads = opt->threads < 1 ? 1 : opt->threads > MAX_THREADS ? MAX_THREADS : opt->threads;
     ws->row = mnv2_descriptor_offsets(net, opt, ws->offsets);
     /* Largest activation of each kind over the blocks, at the first (largest) scale. */
     size_t h = (size_t)size / 2; /* after Conv1 */
@@ -513,11 +513,9 @@ void mnv2_describe(mnv2_workspace *ws, const float *in, int n, float *out)
     ws->job_n = n;
     atomic_store(&ws->next_image, 0);
     int threads = ws->threads < ws->job_n ? ws->threads : ws->job_n;
-    pthread_t tid[256];
-    worker_arg args[256];
+    pthread_t tid[MAX_THREADS];
+    worker_arg args[MAX_THREADS];
     int started = 0;
-    if (threads > 256)
-        threads = 256;
     for (int t = 1; t < threads; t++) {
         args[t] = (worker_arg){ws, t};
         if (pthread_create(&tid[t], NULL, worker_main, &args[t]))
