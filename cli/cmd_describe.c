@@ -19,7 +19,8 @@ static const char default_mnv2_weights[] = "assets/mobilenetv2/mobilenetv2_block
 static const char *const help =
     "usage: imsynth describe IMAGE... -o OUT.npy [options]\n"
     "\n"
-    "Computes the VGG19 Gram descriptor of each image (DESIGN.md, seed/facts-from-thesis-code.md)\n"
+    "Computes the VGG19 Gram descriptor of each image (DESIGN.md, seed/facts-from-thesis-code.md;\n"
+    "or MobileNetV2's with --features mobilenetv2, below)\n"
     "and writes them as a float32 .npy array, one row per image in argument order.\n"
     "Images are read as linear light (EXR as is; 8/16-bit files are sRGB-decoded unless\n"
     "their metadata says linear). An image that is not 256x256 is first resized so that\n"
