@@ -195,6 +195,113 @@ float nn_half_to_float(uint16_t h);
 int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, char *err,
                     size_t errlen);
 
+/* ================================================================ MobileNetV2 ====== */
+/*
+ * An ImageNet-trained texture descriptor beside VGG19's: MobileNetV2 (width 1.0, Keras'
+ * layer names and padding) from Conv1 to block_10, its weights converted by
+ * scripts/get-mobilenetv2 from nsfwjs 4.4.0 (assets/mobilenetv2/, BatchNorm folded into
+ * every conv). Per block i (0 = Keras' "expanded_conv", no expand layer):
+ *   expand    1x1 conv cin -> cexp = 6 cin, ReLU6              (block_i_expand_relu)
+ *   depthwise 3x3 per channel, stride 1 ('same': pad 1) or 2 (pad 0 top/left, 1
+ *             bottom/right: Keras' ZeroPadding2D ((0,1),(0,1)) + 'valid'), ReLU6
+ *   project   1x1 conv cexp -> cout, no activation, + the block's input when stride 1
+ *             and cin == cout                                   (block_i_add)
+ * Spatial sizes for a 224 input: Conv1 112; blocks 1-2 56; 3-5 28; 6-10 14. Any input
+ * side that is a multiple of 16 works (every stride-2 layer then sees an even size).
+ *
+ * The descriptor: Gram G = F F^T / (H W) of each tapped activation, upper triangle with
+ * diagonal row by row (gram_upper_forward's layout, as VGG19's), concatenated in tap order,
+ * then the same again for the second scale if asked (the 224 input box-averaged 2x2 to
+ * 112). Default taps: conv1 (32 ch at 112: the colours, which the deeper taps barely
+ * keep), then one per resolution, each the widest activation there: block_1_expand (96
+ * ch at 112), block_3_expand (144 at 56), block_6_expand (192 at 28), block_10_project
+ * (96 at 14): 528 + 4656 + 10440 + 18528 + 4656 = 38,808 floats per scale. Why these:
+ * BENCHMARKS.md, "MobileNetV2 descriptor" (conv1 halves the colour error of retrieval at
+ * no cost in offset invariance).
+ *
+ * Input: the linear image clamped to [0,1], sRGB-encoded (the network was trained on
+ * sRGB photos), centre-cropped to 224 like VGG's, in [0,1]: the scaling nsfwjs feeds
+ * and the one the stored BatchNorm statistics fit (scripts/get-mobilenetv2 measures it:
+ * the frozen blocks' moving means were re-estimated on [0,1] inputs), or 2x - 1 if
+ * mnv2_options.signed_input (Keras' ImageNet preprocess_input).
+ *
+ * Results do not depend on the thread count: every image is computed by one worker
+ * from start to end, with sgemms in a fixed order, provided OpenBLAS itself runs
+ * single-threaded (OPENBLAS_NUM_THREADS=1 or openblas_set_num_threads(1)): a threaded
+ * OpenBLAS splits its sums differently (measured: other bits).
+ */
+
+enum {
+    MNV2_INPUT_SIZE = 224,
+    MNV2_BLOCKS = 11,              /* expanded_conv (block 0) .. block_10 */
+    MNV2_MAX_TAPS = 1 + 2 + 3 * 10, /* conv1; block 0 has no expand; three per block after */
+    MNV2_DEFAULT_DESCRIPTOR_SIZE = 38808,
+};
+
+/* Where a tap reads: after Conv1's ReLU6 ("conv1"), after block i's expand ReLU6
+ * ("block_i_expand"; block 0 has none), after its depthwise ReLU6 ("block_i_depthwise"),
+ * or its output ("block_i_project": the projection plus the residual if any). Block 0 is
+ * also accepted as "expanded_conv_depthwise" / "expanded_conv_project". */
+typedef enum mnv2_point { MNV2_CONV1, MNV2_EXPAND, MNV2_DEPTHWISE, MNV2_PROJECT } mnv2_point;
+typedef struct mnv2_tap {
+    int block; /* 0..10; ignored for MNV2_CONV1 */
+    mnv2_point point;
+} mnv2_tap;
+
+extern const char mnv2_default_taps[]; /* "conv1,block_1_expand,block_3_expand,..." */
+
+/* The network's folded weights and shapes (read from the file, checked to chain). */
+typedef struct mobilenetv2 {
+    int cin[MNV2_BLOCKS], cexp[MNV2_BLOCKS], cout[MNV2_BLOCKS], stride[MNV2_BLOCKS];
+    float *conv1_w, *conv1_b;                          /* (32,3,3,3), (32) */
+    float *expand_w[MNV2_BLOCKS], *expand_b[MNV2_BLOCKS]; /* (cexp,cin); NULL in block 0 */
+    float *dw_w[MNV2_BLOCKS], *dw_b[MNV2_BLOCKS];         /* (cexp,3,3), (cexp) */
+    float *project_w[MNV2_BLOCKS], *project_b[MNV2_BLOCKS]; /* (cout,cexp), (cout) */
+} mobilenetv2;
+
+/* Tensors Conv1.{weight,bias}, expanded_conv_{depthwise,project}.{weight,bias},
+ * block_N_{expand,depthwise,project}.{weight,bias} for N = 1..10, F32/F16/BF16, shapes
+ * as above with the strides of Keras' MobileNetV2; every value finite. Returns 0, or -1
+ * with a message naming the file and the tensor. */
+int mnv2_load(mobilenetv2 *net, const char *path, char *err, size_t errlen);
+void mnv2_free(mobilenetv2 *net);
+
+/* Parse a comma-separated tap list into taps[MNV2_MAX_TAPS]; a name twice is an error.
+ * Returns the count, or -1 with a message. */
+int mnv2_taps_parse(const char *list, mnv2_tap *taps, char *err, size_t errlen);
+/* "conv1", "block_3_expand", ... into buf. */
+void mnv2_tap_name(mnv2_tap tap, char *buf, size_t len);
+int mnv2_tap_channels(const mobilenetv2 *net, mnv2_tap tap);
+
+typedef struct mnv2_options {
+    int ntaps;
+    mnv2_tap taps[MNV2_MAX_TAPS];
+    int scales;       /* 1: the 224 crop; 2: also the crop box-averaged to 112 */
+    int signed_input; /* feed 2x - 1 instead of x (see above) */
+    int threads;      /* workers, each one image at a time; 0 = 1. Pin OpenBLAS to one
+                       * thread whatever this is (see above). */
+} mnv2_options;
+
+/* Where each (scale, tap) Gram starts in a row, offsets[scales * ntaps] = row length. */
+size_t mnv2_descriptor_offsets(const mobilenetv2 *net, const mnv2_options *opt,
+                               size_t offsets[2 * MNV2_MAX_TAPS + 1]);
+
+/* Linear RGB(A)/grey pixels (width, height >= 224): clamp to [0,1], sRGB-encode, centre
+ * crop 224 (as vgg_preprocess), CHW (3,224,224) in [0,1]. */
+int mnv2_preprocess(float *out, const float *pixels, int width, int height, int channels);
+
+/* Buffers for one worker per thread and up to max_batch images of side `size` (a
+ * multiple of 16; 224 for the descriptor). Keeps a pointer to net. NULL when out of
+ * memory or size is not a multiple of 16. */
+typedef struct mnv2_workspace mnv2_workspace;
+mnv2_workspace *mnv2_workspace_create(const mobilenetv2 *net, const mnv2_options *opt,
+                                      int size, int max_batch);
+void mnv2_workspace_free(mnv2_workspace *ws);
+
+/* Descriptors of n <= max_batch preprocessed images in (n,3,size,size) ([0,1]; the
+ * signed mapping is applied here): out is n rows of mnv2_descriptor_offsets() floats. */
+void mnv2_describe(mnv2_workspace *ws, const float *in, int n, float *out);
+
 #ifdef __cplusplus
 }
 #endif
