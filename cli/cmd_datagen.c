@@ -16,8 +16,8 @@ static const char *const help =
     "\n"
     "Makes the samples with ids [first-id, first-id + N) that DS.sqlite lacks: for each id,\n"
     "the super-shader parameters of `imsynth sample --seed ID`, the active-parameter mask\n"
-    "(parameters the extracted sub-shader depends on), a render of every view, its VGG19\n"
-    "Gram descriptor (random weights, seed 1, avg3; stored as float16) and the render itself.\n"
+    "(parameters the extracted sub-shader depends on), a render of every view, its Gram\n"
+    "descriptor (stored as float16) and the render itself (docs/datasets.md).\n"
     "A sample's bytes depend only on its id and the config: threads, shards and interruptions\n"
     "never change them. Killed or interrupted, rerun the same command: only missing ids are\n"
     "made. A file made with another config is refused. Ctrl-C stops after the current batch.\n"
@@ -37,8 +37,11 @@ static const char *const help =
     "                         light=0.15,flash=0.5,exposure=0.5,wb=0.1,rotate=180,shift=1)\n"
     "  --images none|png16|exr  store the render as a 16-bit linear PNG (default), a half\n"
     "                         EXR, or not at all\n"
-    "  --descriptor vgg19|none  store the descriptor (default vgg19)\n"
-    "  --descriptor-mask M.npy  store only these features: a 0/1 mask over the 305,888\n"
+    "  --descriptor mobilenetv2|vgg19|none  the stored descriptor: MobileNetV2 Gram values\n"
+    "                         (ImageNet layers, 38,808 floats; default: measured the better\n"
+    "                         texture descriptor, BENCHMARKS.md), VGG19 (random weights, seed\n"
+    "                         1, avg3: 305,888), or none (`dataset describe` adds one later)\n"
+    "  --descriptor-mask M.npy  store only these features: a 0/1 mask over the descriptor's\n"
     "                         values or their indices (e.g. `imsynth forest importance`)\n"
     "  --batch B              samples per transaction (default 4 x threads)\n"
     "  --blender 4|3          node and BSDF semantics (default 4)\n"
@@ -159,7 +162,7 @@ int cmd_datagen(int argc, char **argv)
     o.blender = 4;
     o.preset = datagen_preset_find("datagen");
     o.images = DATAGEN_IMAGES_PNG16;
-    o.descriptor = DATAGEN_DESC_VGG19_F16;
+    o.descriptor = DATAGEN_DESC_MOBILENETV2_F16;
     int have_count = 0, quiet = 0;
     const char *augment = NULL;
     for (int i = 1; i < argc; i++) {
@@ -220,8 +223,10 @@ int cmd_datagen(int argc, char **argv)
                 o.descriptor = DATAGEN_DESC_NONE;
             else if (!strcmp(v, "vgg19"))
                 o.descriptor = DATAGEN_DESC_VGG19_F16;
+            else if (!strcmp(v, "mobilenetv2"))
+                o.descriptor = DATAGEN_DESC_MOBILENETV2_F16;
             else {
-                cli_error(sub, "--descriptor: expected vgg19 or none, got \"%s\"", v);
+                cli_error(sub, "--descriptor: expected mobilenetv2, vgg19 or none, got \"%s\"", v);
                 return EXIT_USAGE;
             }
         } else if (!strcmp(a, "--graph"))

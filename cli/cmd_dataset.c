@@ -11,7 +11,8 @@ static const char *const help =
     "       imsynth dataset merge A.sqlite B.sqlite ... -o ALL.sqlite\n"
     "       imsynth dataset export DS.sqlite --npy DIR\n"
     "       imsynth dataset sheet DS.sqlite -o SHEET.png [--count N] [--cols C] [--tile PX]\n"
-    "       imsynth dataset describe DS.sqlite -o OUT.sqlite [--descriptor-mask M.npy] [--threads T]\n"
+    "       imsynth dataset describe DS.sqlite -o OUT.sqlite [--descriptor mobilenetv2|vgg19]\n"
+    "                                [--descriptor-mask M.npy] [--threads T]\n"
     "\n"
     "info    samples, rows (samples x views), id range, parameters, descriptor size, size\n"
     "        on disk, the config and its hash; --digest adds a SHA-256 of every row's\n"
@@ -19,7 +20,7 @@ static const char *const help =
     "merge   the union of datasets made with the same config (shards); refuses mismatched\n"
     "        configs and ids present twice; written atomically\n"
     "export  ids.npy (int64), views.npy (int32), params.npy (float32), active.npy (uint8),\n"
-    "        descriptors.npy (float16) and params.txt, one row per (id, view), in id order.\n"
+    "        descriptors.npy (float16, when stored) and params.txt, one row per (id, view), in id order.\n"
     "        In NumPy:\n"
     "          import numpy as np\n"
     "          X = np.load('DIR/descriptors.npy').astype(np.float32)\n"
@@ -27,8 +28,9 @@ static const char *const help =
     "          names = open('DIR/params.txt').read().split('\\n')[:-1]\n"
     "          ids = np.load('DIR/ids.npy')\n"
     "sheet   a contact sheet of the first N renders (default 64), labelled with their ids\n"
-    "describe  recompute the descriptors from the stored renders into a new dataset (all\n"
-    "        305,888 values, or only the features of a mask: a 0/1 mask or index list)\n";
+    "describe  recompute the descriptors from the stored renders into a new dataset, as\n"
+    "        datagen makes them (default mobilenetv2), all values or only the features of a\n"
+    "        mask (a 0/1 mask or an index list)\n";
 
 static int info(const char *sub, int argc, char **argv)
 {
@@ -174,6 +176,7 @@ static int export_or_sheet(const char *sub, int argc, char **argv, int sheet)
 static int describe(const char *sub, int argc, char **argv)
 {
     const char *path = NULL, *out = NULL, *mask = NULL;
+    datagen_descriptor kind = DATAGEN_DESC_MOBILENETV2_F16;
     long threads = 2;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
@@ -181,6 +184,17 @@ static int describe(const char *sub, int argc, char **argv)
             out = argv[++i];
         else if (!strcmp(a, "--descriptor-mask") && i + 1 < argc)
             mask = argv[++i];
+        else if (!strcmp(a, "--descriptor") && i + 1 < argc) {
+            const char *v = argv[++i];
+            if (!strcmp(v, "vgg19"))
+                kind = DATAGEN_DESC_VGG19_F16;
+            else if (!strcmp(v, "mobilenetv2"))
+                kind = DATAGEN_DESC_MOBILENETV2_F16;
+            else {
+                cli_error(sub, "--descriptor: expected mobilenetv2 or vgg19, got \"%s\"", v);
+                return EXIT_USAGE;
+            }
+        }
         else if (!strcmp(a, "--threads") && i + 1 < argc) {
             char *end;
             threads = strtol(argv[++i], &end, 10);
@@ -200,7 +214,7 @@ static int describe(const char *sub, int argc, char **argv)
         return EXIT_USAGE;
     }
     char err[1024];
-    if (dataset_describe(path, out, mask, (int)threads, err, sizeof err)) {
+    if (dataset_describe(path, out, kind, mask, (int)threads, err, sizeof err)) {
         cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }

@@ -274,9 +274,13 @@ int cmd_describe(int argc, char **argv)
 
     rc = EXIT_FAILURE_WORK;
     if (f.mobilenet) {
-        if (mnv2_load(&f.mnv2, weights ? weights : default_mnv2_weights, err, sizeof err)) {
+        char wbuf[1024];
+        int default_weights = !weights;
+        if (!(weights = cli_data_path(sub, weights, default_mnv2_weights, wbuf, sizeof wbuf)))
+            goto done;
+        if (mnv2_load(&f.mnv2, weights, err, sizeof err)) {
             cli_error(sub, "%s%s", err,
-                      weights ? "" : " (run scripts/get-mobilenetv2, or give --weights)");
+                      default_weights ? " (run scripts/get-mobilenetv2, or give --weights)" : "");
             goto done;
         }
     } else if (weights) {

@@ -576,8 +576,8 @@ static int load_shared(shared *sh, const datagen_options *o, char *paths[3], cha
             return pipeline_error(err, errlen, "%s: the flash scene has no light", paths[2]);
     }
     sh->n_views = 1 + o->augment.views;
-    if (o->descriptor == DATAGEN_DESC_VGG19_F16) {
-        if (descriptor_config_init(&sh->desc, o->descriptor_mask_path, err, errlen))
+    if (o->descriptor != DATAGEN_DESC_NONE) {
+        if (descriptor_config_init(&sh->desc, o->descriptor, o->descriptor_mask_path, err, errlen))
             return -1;
         sh->desc_size = sh->desc.n_stored;
     }

@@ -9,6 +9,8 @@
 
 #include "nn/nn.h"
 #include "pipeline/store.h"
+/* Last: OpenBLAS's config defines a macro I (complex.h). */
+#include <cblas.h>
 
 struct dataset {
     char *path;
@@ -400,8 +402,8 @@ done:
 
 /* ---------------------------------------------------------------- describe --------- */
 
-int dataset_describe(const char *src_path, const char *out_path, const char *mask_path,
-                     int threads, char *err, size_t errlen)
+int dataset_describe(const char *src_path, const char *out_path, datagen_descriptor kind,
+                     const char *mask_path, int threads, char *err, size_t errlen)
 {
     dataset *d = dataset_open(src_path, err, errlen);
     if (!d)
@@ -418,10 +420,17 @@ int dataset_describe(const char *src_path, const char *out_path, const char *mas
     char *cfg_text = NULL, *names = store_meta_get(d->db, src_path, "params", err, errlen);
     if (!cfg || !names)
         goto done;
-    if (descriptor_config_init(&dc, mask_path, err, errlen))
+    if (kind == DATAGEN_DESC_NONE) {
+        pipeline_error(err, errlen, "describe: no descriptor asked for");
+        goto done;
+    }
+    if (descriptor_config_init(&dc, kind, mask_path, err, errlen))
         goto done;
     have_dc = 1;
     dc.vgg.threads = threads > 0 ? threads : 1;
+    /* As datagen: our own workers, OpenBLAS single-threaded (a threaded OpenBLAS splits its
+     * sums differently, and the descriptor must be datagen's to the bit). */
+    openblas_set_num_threads(1);
     if (descriptor_worker_init(&dw, &dc)) {
         pipeline_error(err, errlen, "out of memory");
         goto done;

@@ -1,20 +1,43 @@
-/* The dataset's descriptor: VGG19 Gram values (random weights, seed 1, avg3, fp32),
- * optionally restricted to a feature mask, stored as float16. One definition for datagen
- * and `dataset describe`, so that both store the same bytes for the same image. */
+/* The dataset's descriptor: VGG19 Gram values (random weights, seed 1, avg3, fp32) or
+ * MobileNetV2's (default taps, one scale, [0,1] input), optionally restricted to a feature
+ * mask, stored as float16. One definition for datagen and `dataset describe`, so that both
+ * store the same bytes for the same image. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "pipeline/store.h"
 
-int descriptor_config_init(descriptor_config *dc, const char *mask_path, char *err,
+int descriptor_config_init(descriptor_config *dc, int kind, const char *mask_path, char *err,
                            size_t errlen)
 {
     memset(dc, 0, sizeof *dc);
-    if (vgg19_init_random(&dc->net, vgg19_standard_width, 1))
-        return pipeline_error(err, errlen, "out of memory for VGG19");
-    dc->vgg = (vgg_options){.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32, .threads = 1};
-    dc->full_size = vgg19_descriptor_size(&dc->net);
+    dc->mobilenet = kind == DATAGEN_DESC_MOBILENETV2_F16;
+    if (dc->mobilenet) {
+        char path[1024], msg[768];
+        if (pipeline_find_data("assets/mobilenetv2/mobilenetv2_block10.safetensors", path,
+                               sizeof path, err, errlen))
+            return -1;
+        size_t len;
+        char *bytes = pipeline_read_file(path, &len, err, errlen);
+        if (!bytes)
+            return -1;
+        pipeline_sha256_hex(bytes, len, dc->weights_hash);
+        free(bytes);
+        if (mnv2_load(&dc->mnv2, path, msg, sizeof msg))
+            return pipeline_error(err, errlen, "%s", msg);
+        dc->mnv2_opt.ntaps = mnv2_taps_parse(mnv2_default_taps, dc->mnv2_opt.taps, msg, sizeof msg);
+        dc->mnv2_opt.scales = 1;
+        dc->mnv2_opt.threads = 1;
+        size_t off[2 * MNV2_MAX_TAPS + 1];
+        dc->full_size = mnv2_descriptor_offsets(&dc->mnv2, &dc->mnv2_opt, off);
+    } else {
+        if (vgg19_init_random(&dc->net, vgg19_standard_width, 1))
+            return pipeline_error(err, errlen, "out of memory for VGG19");
+        dc->vgg = (vgg_options){.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32,
+                                .threads = 1};
+        dc->full_size = vgg19_descriptor_size(&dc->net);
+    }
     dc->n_stored = dc->full_size;
     if (!mask_path)
         return 0;
@@ -22,7 +45,7 @@ int descriptor_config_init(descriptor_config *dc, const char *mask_path, char *e
     size_t r, c;
     char msg[768];
     if (nn_npy_read_f32(mask_path, &m, &r, &c, msg, sizeof msg)) {
-        vgg19_free(&dc->net);
+        descriptor_config_free(dc);
         return pipeline_error(err, errlen, "--descriptor-mask: %s", msg);
     }
     size_t n = r * c;
@@ -65,7 +88,9 @@ int descriptor_config_init(descriptor_config *dc, const char *mask_path, char *e
 
 void descriptor_config_free(descriptor_config *dc)
 {
-    if (dc->full_size)
+    if (dc->full_size && dc->mobilenet)
+        mnv2_free(&dc->mnv2);
+    else if (dc->full_size)
         vgg19_free(&dc->net);
     free(dc->index);
     memset(dc, 0, sizeof *dc);
@@ -73,6 +98,18 @@ void descriptor_config_free(descriptor_config *dc)
 
 void descriptor_config_json(const descriptor_config *dc, cJSON *d)
 {
+    if (dc->mobilenet) {
+        cJSON_AddStringToObject(d, "features", "mobilenetv2");
+        cJSON_AddStringToObject(d, "weights_sha256", dc->weights_hash);
+        cJSON_AddStringToObject(d, "taps", mnv2_default_taps);
+        cJSON_AddNumberToObject(d, "scales", 1);
+        cJSON_AddStringToObject(d, "input", "srgb [0,1]");
+        cJSON_AddStringToObject(d, "storage", "float16");
+        cJSON_AddNumberToObject(d, "size", (double)dc->n_stored);
+        if (dc->index)
+            cJSON_AddStringToObject(d, "mask_sha256", dc->mask_hash);
+        return;
+    }
     cJSON_AddStringToObject(d, "features", "vgg19");
     cJSON_AddStringToObject(d, "weights", "random he-normal, seed 1");
     cJSON_AddStringToObject(d, "pool", "avg3");
@@ -85,15 +122,20 @@ void descriptor_config_json(const descriptor_config *dc, cJSON *d)
 
 int descriptor_worker_init(descriptor_worker *dw, const descriptor_config *dc)
 {
-    dw->ws = vgg_workspace_create(&dc->net, &dc->vgg, 1);
+    memset(dw, 0, sizeof *dw);
+    if (dc->mobilenet)
+        dw->mws = mnv2_workspace_create(&dc->mnv2, &dc->mnv2_opt, MNV2_INPUT_SIZE, 1);
+    else
+        dw->ws = vgg_workspace_create(&dc->net, &dc->vgg, 1);
     dw->in = malloc(3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE * sizeof(float));
     dw->full = malloc(dc->full_size * sizeof(float));
-    return dw->ws && dw->in && dw->full ? 0 : -1;
+    return (dw->ws || dw->mws) && dw->in && dw->full ? 0 : -1;
 }
 
 void descriptor_worker_free(descriptor_worker *dw)
 {
     vgg_workspace_free(dw->ws);
+    mnv2_workspace_free(dw->mws);
     free(dw->in);
     free(dw->full);
     memset(dw, 0, sizeof *dw);
@@ -102,9 +144,15 @@ void descriptor_worker_free(descriptor_worker *dw)
 uint16_t *descriptor_compute_f16(const descriptor_config *dc, descriptor_worker *dw,
                                  const image *img)
 {
-    if (vgg_preprocess(dw->in, img->pixels, img->width, img->height, img->channels))
-        return NULL;
-    vgg_describe(dw->ws, dw->in, 1, dw->full);
+    if (dc->mobilenet) {
+        if (mnv2_preprocess(dw->in, img->pixels, img->width, img->height, img->channels))
+            return NULL;
+        mnv2_describe(dw->mws, dw->in, 1, dw->full);
+    } else {
+        if (vgg_preprocess(dw->in, img->pixels, img->width, img->height, img->channels))
+            return NULL;
+        vgg_describe(dw->ws, dw->in, 1, dw->full);
+    }
     uint16_t *out = malloc(dc->n_stored * sizeof *out);
     if (!out)
         return NULL;

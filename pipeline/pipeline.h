@@ -83,7 +83,14 @@ const datagen_preset *datagen_preset_find(const char *name);
 const char *datagen_preset_names(void);
 
 typedef enum datagen_images { DATAGEN_IMAGES_NONE, DATAGEN_IMAGES_PNG16, DATAGEN_IMAGES_EXR } datagen_images;
-typedef enum datagen_descriptor { DATAGEN_DESC_NONE, DATAGEN_DESC_VGG19_F16 } datagen_descriptor;
+/* What datagen stores as a sample's descriptor (float16): nothing, the VGG19 Gram
+ * descriptor (random weights, seed 1, avg3, fp32: 305,888 values), or the MobileNetV2 one
+ * (nsfwjs' ImageNet layers, default taps: 38,808 values; nn/nn.h). */
+typedef enum datagen_descriptor {
+    DATAGEN_DESC_NONE,
+    DATAGEN_DESC_VGG19_F16,
+    DATAGEN_DESC_MOBILENETV2_F16
+} datagen_descriptor;
 
 /* Augmentation: extra views of every sample (same parameters, another image). Parsed from
  * a spec "views=K,light=J,flash=F,exposure=E,wb=W,rotate=D,shift=S" (datagen_augment_parse):
@@ -197,12 +204,12 @@ int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path,
                   size_t errlen);
 
 /* Recomputes the descriptors of src's stored renders into a new dataset out_path (written
- * to a temporary file and renamed): every row as in src, the descriptor computed as
+ * to a temporary file and renamed): every row as in src, the descriptor `kind` computed as
  * datagen does (restricted to mask_path's features when not NULL), the config's
- * descriptor section changed accordingly. For a dataset made with --descriptor none, or
- * to store fewer features. */
-int dataset_describe(const char *src_path, const char *out_path, const char *mask_path,
-                     int threads, char *err, size_t errlen);
+ * descriptor section changed accordingly. For a dataset made with --descriptor none, the
+ * other network's descriptor, or fewer features. */
+int dataset_describe(const char *src_path, const char *out_path, datagen_descriptor kind,
+                     const char *mask_path, int threads, char *err, size_t errlen);
 
 /* Writes ids.npy (int64), params.npy (float32, rows x n_params), active.npy (uint8),
  * views.npy (int32), descriptors.npy (float16, when stored) and params.txt (names) into

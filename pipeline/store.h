@@ -21,17 +21,23 @@ sqlite3 *store_open_for_writing(const char *path, const char *config_json,
 
 /* The dataset's descriptor (describe.c): network, options and feature selection. */
 typedef struct descriptor_config {
+    int mobilenet; /* 0: VGG19 (random weights, seed 1, avg3, fp32); 1: MobileNetV2 */
     vgg19 net;
     vgg_options vgg;
+    mobilenetv2 mnv2;
+    mnv2_options mnv2_opt;
+    char weights_hash[65]; /* MobileNetV2's weights file */
     size_t full_size, n_stored;
     uint32_t *index; /* stored features, ascending; NULL = all */
     char mask_hash[65];
 } descriptor_config;
 typedef struct descriptor_worker {
     vgg_workspace *ws;
+    mnv2_workspace *mws;
     float *in, *full;
 } descriptor_worker;
-int descriptor_config_init(descriptor_config *dc, const char *mask_path, char *err,
+/* kind: DATAGEN_DESC_VGG19_F16 or DATAGEN_DESC_MOBILENETV2_F16. */
+int descriptor_config_init(descriptor_config *dc, int kind, const char *mask_path, char *err,
                            size_t errlen);
 void descriptor_config_free(descriptor_config *dc);
 /* Adds the descriptor's settings to a config's "descriptor" object. */

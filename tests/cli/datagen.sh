@@ -33,7 +33,7 @@ n=4; [ -n "$quick" ] && n=2
 check "datagen, 1 thread" 0 $?
 "$imsynth" dataset info "$tmp/a.sqlite" > "$tmp/out"; check "info" 0 $?
 expect_stdout "samples counted" "samples          $n ($((2 * n)) rows"
-expect_stdout "descriptor size" "305888 floats"
+expect_stdout "descriptor size (MobileNetV2, the default)" "38808 floats"
 "$imsynth" datagen --out "$tmp/b.sqlite" --count $n $common --augment "$aug" --threads 2 --batch 1
 check "datagen, 2 threads, batch 1" 0 $?
 same_digest "same bytes for 1 and 2 threads, batch 4 and 1" "$tmp/a.sqlite" "$tmp/b.sqlite"
@@ -100,7 +100,7 @@ same_digest "interrupted and resumed equals uninterrupted" "$tmp/ref.sqlite" "$t
 for f in ids views params active descriptors; do
     if [ -s "$tmp/npy/$f.npy" ]; then echo "ok: $f.npy"; else echo "FAIL: no $f.npy"; failures=$((failures + 1)); fi
 done
-grep -a -q "'shape': ($((2 * n)), 305888)" "$tmp/npy/descriptors.npy" && echo "ok: descriptors shape" || { echo "FAIL: descriptors shape"; failures=$((failures + 1)); }
+grep -a -q "'shape': ($((2 * n)), 38808)" "$tmp/npy/descriptors.npy" && echo "ok: descriptors shape" || { echo "FAIL: descriptors shape"; failures=$((failures + 1)); }
 grep -a -q "'descr': '|u1'.*'shape': ($((2 * n)), 50)" "$tmp/npy/active.npy" && echo "ok: active mask shape" || { echo "FAIL: active shape"; failures=$((failures + 1)); }
 "$imsynth" dataset sheet "$tmp/a.sqlite" -o "$tmp/sheet.png" --cols 4 --tile 64; check "sheet" 0 $?
 "$imsynth" compare "$tmp/sheet.png" "$tmp/sheet.png" > /dev/null; check "sheet is a readable image" 0 $?
@@ -121,8 +121,13 @@ same_digest "masked datagen equals masked describe" "$tmp/dm.sqlite" "$tmp/rm.sq
 "$imsynth" datagen --out "$tmp/bm.sqlite" --count 1 $common --descriptor-mask "$tmp/npy/ids.npy" 2> "$tmp/err"
 check "a mask that is not ascending" 1 $?
 expect_stderr "names the mask and the entry" "ids.npy: entry 1"
-"$imsynth" dataset describe "$tmp/c.sqlite" -o "$tmp/x.sqlite" --descriptor-mask "$tmp/cnpy/ids.npy" 2> /dev/null
-check "describe of a dataset with images works" 0 $?
+"$imsynth" datagen --out "$tmp/v.sqlite" --count 1 $common --descriptor vgg19
+check "datagen with the VGG19 descriptor" 0 $?
+"$imsynth" dataset info "$tmp/v.sqlite" > "$tmp/out"; expect_stdout "VGG19 size" "305888 floats"
+"$imsynth" datagen --out "$tmp/noimg.sqlite" --count 1 --first-id 700 --preset draft --images none --descriptor none --quiet
+"$imsynth" dataset describe "$tmp/noimg.sqlite" -o "$tmp/x.sqlite" 2> "$tmp/err"
+check "describe of a dataset without images" 1 $?
+expect_stderr "says there is nothing to describe" "no stored image"
 
 # Bad files and places.
 echo "not a database" > "$tmp/text.sqlite"
