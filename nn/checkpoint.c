@@ -7,6 +7,8 @@
  *   imsynth.arch       nn_mlp_format_arch()        imsynth.heads   nn_heads_format()
  *   imsynth.losses     one per head: mse|l1|thesis (regression) or ce (softmax)
  *   imsynth.y_cols     Y columns
+ *   imsynth.dropout_seed  dropout's draws (with optimizer.step: a resumed run draws as
+ *                      the uninterrupted one would)
  *   optimizer.kind     sgd|adam|adamw, optimizer.step (steps taken), optimizer.<field>
  *                      for every nn_optimizer_config field
  *   tensors optimizer.exp_avg.<name>, optimizer.exp_avg_sq.<name> (Adam, AdamW) or
@@ -76,6 +78,7 @@ int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char
     meta_add(&meta, "imsynth.heads", "%s", heads);
     meta_add(&meta, "imsynth.losses", "%s", losses);
     meta_add(&meta, "imsynth.y_cols", "%d", m->y_cols);
+    meta_add(&meta, "imsynth.dropout_seed", "%llu", (unsigned long long)m->dropout_seed);
     int with_opt = opt && opt->n;
     if (with_opt) {
         const nn_optimizer_config *c = &opt->cfg;
@@ -337,6 +340,15 @@ int nn_mlp_load(nn_mlp *m, nn_optimizer *opt, const char *path, char *err, size_
     }
     if ((int)y_cols > m->y_cols)
         m->y_cols = (int)y_cols;
+    char seed[32], *end;
+    if (!nn_safetensors_metadata(&st, "imsynth.dropout_seed", seed, sizeof seed)) {
+        m->dropout_seed = strtoull(seed, &end, 10);
+        if (!*seed || *end) {
+            set_err(err, errlen, "%s: metadata imsynth.dropout_seed = \"%s\" is not a number",
+                    path, seed);
+            goto fail;
+        }
+    }
     if (load_weights_from(m, &st, err, errlen))
         goto fail;
     if (opt && load_optimizer(m, opt, &st, err, errlen))

@@ -216,6 +216,7 @@ int nn_heads_parse(const char *spec, int y_cols, int out_width, nn_loss default_
                 if (!bad && unit)
                     bad = (size_t)(body_end - unit - 1) != 4 || strncmp(unit + 1, "unit", 4);
                 if (!bad) {
+                    h.loss = NN_LOSS_MSE; /* unused: cross-entropy; one value for equality */
                     h.y_first = (int)c;
                     h.classes = (int)k;
                     h.unit_selector = unit != NULL;
