@@ -20,6 +20,8 @@ static const subcommand subcommands[] = {
     {"compare", cmd_compare, "RMSE, bias and worst block of an image against a reference"},
 #ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
+    {"train", cmd_train, "train an MLP with heads on X.npy -> Y.npy (safetensors checkpoint)"},
+    {"infer", cmd_infer, "predictions of a trained model for X.npy, as .npy"},
 #endif
 };
 

@@ -428,6 +428,18 @@ int nn_mlp_train_step(nn_mlp *m, nn_optimizer *opt, const float *x, const float 
 int nn_mlp_check_data(const nn_mlp *m, const float *x, const float *y, const float *mask,
                       size_t N, char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- batches ---------- */
+
+/* order (n) = the rows of an epoch: 0..n-1, or with shuffle a permutation that is a pure
+ * function of (seed, epoch). */
+void nn_epoch_order(uint64_t seed, long long epoch, int shuffle, size_t n, size_t *order);
+/* dst (n, cols) = rows[0..n-1] of src. */
+void nn_gather_rows(float *dst, const float *src, size_t cols, const size_t *rows, size_t n);
+/* Which batch global step `step` trains on: epoch, first position in the epoch's order,
+ * and row count (batch, or fewer for an epoch's last batch). */
+void nn_step_batch(long long step, size_t n_rows, int batch, long long *epoch, size_t *first,
+                   int *count);
+
 /* ---------------------------------------------------------------- checkpoints ------ */
 
 /* Tensor writer: n tensors (F32, shapes up to 2-D) and string metadata pairs into a

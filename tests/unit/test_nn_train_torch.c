@@ -197,6 +197,79 @@ static void run_case(const char *c)
     free(want_loss);
 }
 
+/* The command line, as documented: `imsynth train --init ... --no-shuffle` on the same
+ * data reaches torch's weights, and its --log holds torch's losses. */
+static void run_cli_case(const char *c, const char *flags)
+{
+    char cmd[4096], path[1024], err[512];
+    const char *bin = IMSYNTH_BINARY_DIR "/cli/imsynth";
+    FILE *probe = fopen(bin, "rb");
+    if (!probe) {
+        printf("%s not built: skipped\n", bin);
+        return;
+    }
+    fclose(probe);
+    spec s;
+    read_spec(c, &s);
+    snprintf(cmd, sizeof cmd,
+             "%s train -q --x " DIR "x.npy --y " DIR "y.npy %s --arch '%s' --heads '%s' "
+             "--loss %s --optimizer %s --lr %.9g --wd %.9g --batch %d --steps %d --no-shuffle "
+             "--threads 2 --init " DIR "%s/init.safetensors --log " IMSYNTH_BINARY_DIR
+             "/nn_train_cli_%s.csv -o " IMSYNTH_BINARY_DIR "/nn_train_cli_%s.safetensors %s",
+             bin, s.mask ? "--mask " DIR "mask.npy" : "", s.arch, s.heads, s.loss, s.opt, s.lr,
+             s.wd, s.batch, s.steps, c, c, c, flags);
+    assert_int_equal(system(cmd), 0);
+    nn_mlp m;
+    nn_optimizer opt;
+    snprintf(path, sizeof path, IMSYNTH_BINARY_DIR "/nn_train_cli_%s.safetensors", c);
+    assert_int_equal(nn_mlp_load(&m, &opt, path, err, sizeof err), 0);
+    assert_true(opt.step == s.steps);
+    nn_safetensors st;
+    snprintf(path, sizeof path, DIR "%s/final.safetensors", c);
+    assert_int_equal(nn_safetensors_open(path, &st, err, sizeof err), 0);
+    double worst = 0;
+    for (int i = 0; i < m.n_params; i++)
+        worst = fmax(worst, max_diff(&st, m.params[i].name, &m.params[i],
+                                     m.weights + m.params[i].offset));
+    nn_safetensors_close(&st);
+    // the CSV: step,epoch,loss,lr; the losses against torch's
+    snprintf(path, sizeof path, DIR "%s/losses.npy", c);
+    size_t nl, one;
+    float *want = read_npy(path, &nl, &one);
+    snprintf(path, sizeof path, IMSYNTH_BINARY_DIR "/nn_train_cli_%s.csv", c);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    char line[256];
+    assert_non_null(fgets(line, sizeof line, f));
+    assert_string_equal(line, "step,epoch,loss,lr\n");
+    double worst_loss = 0;
+    int rows = 0;
+    long long step, epoch;
+    double loss, lr;
+    while (fscanf(f, "%lld,%lld,%lf,%lf", &step, &epoch, &loss, &lr) == 4) {
+        assert_true(step == rows && rows < (int)nl);
+        worst_loss = fmax(worst_loss, fabs(loss - want[rows]) / fabs(want[rows]));
+        rows++;
+    }
+    fclose(f);
+    printf("imsynth train %s: %d logged steps, worst loss rel %.3g, weight %.3g\n", c, rows,
+           worst_loss, worst);
+    assert_int_equal(rows, s.steps);
+    assert_true(worst_loss <= LOSS_RTOL);
+    assert_true(worst <= WEIGHT_ATOL);
+    free(want);
+    nn_optimizer_free(&opt);
+    nn_mlp_free(&m);
+}
+
+static void test_cli_matches_torch(void **state)
+{
+    run_cli_case("adamw_mlp3", "");
+    run_cli_case("adamw_mixed", "");
+    run_cli_case("sgd_clip_step", "--momentum 0.9 --clip 0.5 --schedule step --step-size 30 "
+                                  "--gamma 0.5");
+}
+
 static void test_adamw_mlp3(void **state) { run_case("adamw_mlp3"); }
 static void test_adamw_mixed_heads(void **state) { run_case("adamw_mixed"); }
 static void test_sgd_clip_step(void **state) { run_case("sgd_clip_step"); }
@@ -209,6 +282,7 @@ int main(void)
         cmocka_unit_test(test_adamw_mixed_heads),
         cmocka_unit_test(test_sgd_clip_step),
         cmocka_unit_test(test_adam_residual_cosine),
+        cmocka_unit_test(test_cli_matches_torch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

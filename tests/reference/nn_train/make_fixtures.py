@@ -78,21 +78,23 @@ def load_safetensors(path):
 # ---------------------------------------------------------------- the modules
 
 class Block(nn.Module):
-    """A residual hidden layer: linear, [norm], activation; adds its input if widths agree."""
+    """A residual hidden layer: linear, [norm], activation, [dropout]; adds its input if the
+    widths agree."""
 
-    def __init__(self, i, o, act, ln):
+    def __init__(self, i, o, act, ln, p):
         super().__init__()
         self.linear = nn.Linear(i, o)
         if ln:
             self.norm = nn.LayerNorm(o)
         self.act = act
+        self.drop = nn.Dropout(p) if p > 0 else nn.Identity()
         self.skip = i == o
 
     def forward(self, x):
         h = self.linear(x)
         if hasattr(self, "norm"):
             h = self.norm(h)
-        h = self.act(h)
+        h = self.drop(self.act(h))
         return x + h if self.skip else h
 
 
@@ -134,7 +136,7 @@ class MLP(nn.Module):
             i, o = widths[l], widths[l + 1]
             last = l == len(widths) - 2
             if opts["res"] and not last:
-                mods.append(Block(i, o, make_act(opts), opts["ln"]))
+                mods.append(Block(i, o, make_act(opts), opts["ln"], opts["dropout"]))
                 continue
             mods.append(nn.Linear(i, o))
             if last:
