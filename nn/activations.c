@@ -85,21 +85,14 @@ void softmax_forward(float *out, const float *in, int B, int K)
     }
 }
 
-/* splitmix64's finaliser: a bijection, so (seed, i) -> bits is a pure counter-based draw. */
-static uint64_t mix64(uint64_t z)
-{
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
 
 void dropout_forward(float *out, float *keep, const float *in, size_t n, float p, uint64_t seed)
 {
     // keep[i] = (u_i >= p) / (1 - p), u_i uniform in [0,1) from (seed, i); out = in * keep
     float scale = p < 1.0f ? 1.0f / (1.0f - p) : 0.0f;
-    uint64_t s = mix64(seed ^ 0x6a09e667f3bcc909ull);
+    uint64_t s = nn_mix64(seed ^ 0x6a09e667f3bcc909ull);
     for (size_t i = 0; i < n; i++) {
-        double u = (double)(mix64(s + i) >> 11) * 0x1p-53;
+        double u = (double)(nn_mix64(s + i) >> 11) * 0x1p-53;
         keep[i] = u >= p ? scale : 0.0f;
         out[i] = in[i] * keep[i];
     }

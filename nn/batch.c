@@ -3,7 +3,9 @@
 
 #include "nn/nn.h"
 
-static uint64_t mix64(uint64_t z)
+/* splitmix64's finaliser: a bijection of 64-bit words, so hashing a (seed, counter) pair
+ * gives counter-based random bits: any draw is computable alone, in any order or thread. */
+uint64_t nn_mix64(uint64_t z)
 {
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
@@ -18,9 +20,9 @@ void nn_epoch_order(uint64_t seed, long long epoch, int shuffle, size_t n, size_
         return;
     // Fisher-Yates from the back; draw k is a pure function of (seed, epoch, k), so the
     // order of any epoch can be rebuilt without replaying the ones before it (resuming)
-    uint64_t s = mix64(seed ^ mix64((uint64_t)epoch + 0x510e527fade682d1ull));
+    uint64_t s = nn_mix64(seed ^ nn_mix64((uint64_t)epoch + 0x510e527fade682d1ull));
     for (size_t i = n - 1; i > 0 && n > 1; i--) {
-        uint64_t r = mix64(s + i);
+        uint64_t r = nn_mix64(s + i);
         size_t j = (size_t)(r % (uint64_t)(i + 1)); /* bias < (i+1) / 2^64: none visible */
         size_t t = order[i];
         order[i] = order[j];

@@ -278,17 +278,11 @@ void nn_heads_format(const nn_head *heads, int n, char *buf, size_t len)
 
 /* ---------------------------------------------------------------- parameters ------ */
 
-static uint64_t mix64(uint64_t z)
-{
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
 
 /* Uniform in [0,1) from (seed, tensor, index): a pure function, independent of order. */
 static double uniform_at(uint64_t seed, uint64_t tensor, uint64_t i)
 {
-    uint64_t z = mix64(seed ^ mix64(tensor * 0x9e3779b97f4a7c15ull + i + 1));
+    uint64_t z = nn_mix64(seed ^ nn_mix64(tensor * 0x9e3779b97f4a7c15ull + i + 1));
     return (double)(z >> 11) * 0x1p-53;
 }
 
@@ -448,7 +442,7 @@ int nn_mlp_create(nn_mlp *m, const nn_mlp_config *cfg, const nn_head *heads, int
     }
     init_params(m, &ix, seed);
     m->threads = 1;
-    m->dropout_seed = mix64(seed + 0x243f6a8885a308d3ull);
+    m->dropout_seed = nn_mix64(seed + 0x243f6a8885a308d3ull);
     return 0;
 }
 
@@ -586,7 +580,7 @@ static void trunk_forward(nn_mlp *m, const mlp_acts *a, const float *x, int B, i
         // h (B,Co) = dropout(act) [+ in when residual and Ci == Co]
         if (training && c->dropout > 0.0f)
             dropout_forward(a->h[l], a->keep[l], a->act[l], n, c->dropout,
-                            m->dropout_seed ^ mix64((uint64_t)step * 64 + (uint64_t)l));
+                            m->dropout_seed ^ nn_mix64((uint64_t)step * 64 + (uint64_t)l));
         else
             memcpy(a->h[l], a->act[l], n * sizeof(float));
         if (c->residual && Ci == Co)

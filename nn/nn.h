@@ -430,6 +430,9 @@ int nn_mlp_check_data(const nn_mlp *m, const float *x, const float *y, const flo
 
 /* ---------------------------------------------------------------- batches ---------- */
 
+/* splitmix64's finaliser (a bijection): counter-based random bits for initialisation,
+ * dropout and shuffling, so every draw is a pure function of (seed, counter). */
+uint64_t nn_mix64(uint64_t z);
 /* order (n) = the rows of an epoch: 0..n-1, or with shuffle a permutation that is a pure
  * function of (seed, epoch). */
 void nn_epoch_order(uint64_t seed, long long epoch, int shuffle, size_t n, size_t *order);
