@@ -47,6 +47,9 @@ static const char *const help =
     "  --mask M.npy               N x YC of 0/1: an element with 0 contributes neither loss\n"
     "                             nor gradient (its Y may be anything, NaN included); a\n"
     "                             softmax head's mask is its column's\n"
+    "  --column-weights W.npy     YC per-column loss weights (1 x YC or YC x 1): a\n"
+    "                             regression element's term, or a softmax head's loss, is\n"
+    "                             multiplied by its column's weight\n"
     "  --loss mse|l1|thesis       regression heads' loss (default mse); thesis =\n"
     "                             MSE(p, y) + 20 MSE(log(p + 1e-7), log(y + 1e-7))\n"
     "  --optimizer sgd|adam|adamw (default adamw), torch 1.13's update rules\n"
@@ -236,7 +239,7 @@ int cmd_train(int argc, char **argv)
         return EXIT_OK;
     }
     const char *x_path = NULL, *y_path = NULL, *m_path = NULL, *arch = NULL, *heads_spec = NULL,
-               *init = NULL, *resume = NULL, *log_path = NULL, *out_path = NULL;
+               *init = NULL, *resume = NULL, *colw_path = NULL, *log_path = NULL, *out_path = NULL;
     int loss_kind = NN_LOSS_MSE, opt_kind = NN_OPT_ADAMW, schedule = NN_SCHEDULE_CONSTANT;
     int shuffle = 1, quiet = 0;
     long long batch = 64, steps = -1, epochs = -1, seed = 1, warmup = 0, step_size = -1,
@@ -275,6 +278,8 @@ int cmd_train(int argc, char **argv)
             arch = v;
         else if (!strcmp(a, "--heads"))
             heads_spec = v;
+        else if (!strcmp(a, "--column-weights"))
+            colw_path = v;
         else if (!strcmp(a, "--init"))
             init = v;
         else if (!strcmp(a, "--resume"))
@@ -365,7 +370,7 @@ int cmd_train(int argc, char **argv)
 
     int rc = EXIT_FAILURE_WORK;
     size_t n = 0, in = 0, ny = 0, yc = 0, nm = 0, mc = 0;
-    float *x = NULL, *y = NULL, *mask = NULL, *bx = NULL, *by = NULL, *bm = NULL, *lrs = NULL;
+    float *x = NULL, *y = NULL, *mask = NULL, *colw = NULL, *bx = NULL, *by = NULL, *bm = NULL, *lrs = NULL;
     double *losses = NULL;
     size_t *order = NULL;
     nn_mlp model = {0};
@@ -374,6 +379,20 @@ int cmd_train(int argc, char **argv)
         !(y = read_array(sub, "--y", y_path, &ny, &yc)) ||
         (m_path && !(mask = read_array(sub, "--mask", m_path, &nm, &mc))))
         goto done;
+    size_t wr = 0, wc = 0;
+    if (colw_path && !(colw = read_array(sub, "--column-weights", colw_path, &wr, &wc)))
+        goto done;
+    if (colw) {
+        int ok = wr * wc == yc;
+        for (size_t k = 0; ok && k < yc; k++)
+            ok = isfinite(colw[k]) && colw[k] >= 0.0f;
+        if (!ok) {
+            cli_error(sub, "%s: need %zu finite non-negative weights (one per Y column), got %zu "
+                      "x %zu",
+                      colw_path, yc, wr, wc);
+            goto done;
+        }
+    }
     if (ny != n || (mask && (nm != n || mc != yc))) {
         cli_error(sub, "%s has %zu rows, %s %zu x %zu, %s %zu x %zu: X, Y and the mask need the "
                   "same rows, Y and the mask the same columns",
@@ -448,6 +467,7 @@ int cmd_train(int argc, char **argv)
         }
     }
     model.threads = (int)threads;
+    model.column_weights = colw;
     // Our workers each run single-threaded sgemms in fixed pieces (bit-identical results);
     // OpenBLAS's own threads would change the sums' order and fight ours for the cores.
     openblas_set_num_threads(1);
@@ -533,6 +553,7 @@ done:
     free(x);
     free(y);
     free(mask);
+    free(colw);
     free(bx);
     free(by);
     free(bm);

@@ -685,13 +685,18 @@ static double heads_loss_backward(const nn_mlp *m, const mlp_acts *a, const floa
         double loss;
         if (h->kind == NN_HEAD_SOFTMAX) {
             // the softmax probabilities go to d[0] (scratch); gd = dloss/dlogits
-            loss = cross_entropy_forward_backward(a->gd, a->d[0], a->gp, a->gy,
-                                                  mask ? a->gm : NULL, B, h->classes,
-                                                  h->weight);
+            float cw = m->column_weights ? m->column_weights[h->y_first] : 1.0f;
+            loss = cw * cross_entropy_forward_backward(a->gd, a->d[0], a->gp, a->gy,
+                                                       mask ? a->gm : NULL, B, h->classes,
+                                                       (double)h->weight * cw);
         } else {
             // gd = dloss/dp; for a sigmoid head then dloss/dz = dp p (1 - p)
             loss = regression_loss_forward_backward(h->loss, a->gd, a->gp, a->gy,
-                                                    mask ? a->gm : NULL, NULL, B, h->count,
+                                                    mask ? a->gm : NULL,
+                                                    m->column_weights
+                                                        ? m->column_weights + h->y_first
+                                                        : NULL,
+                                                    B, h->count,
                                                     h->weight);
             if (h->kind == NN_HEAD_SIGMOID)
                 sigmoid_backward(a->gd, a->gd, a->gp, (size_t)B * h->count);

@@ -393,6 +393,11 @@ typedef struct nn_mlp {
     float *weights, *grads; /* n_floats each, one block: the optimiser sees one array */
     int threads;            /* worker threads of the linear layers (>= 1) */
     uint64_t dropout_seed;
+    /* Per-output loss weights, one per Y column (y_cols floats, caller-owned; NULL = all
+     * 1): a regression element's term is multiplied by its column's weight (the mean's
+     * denominator stays the count of unmasked elements), a softmax head's loss by its
+     * column's. A training setting: checkpoints do not store it. */
+    const float *column_weights;
     /* Activations for up to cap_batch rows, (re)allocated by the first bigger batch. */
     int cap_batch;
     float *acts;

@@ -7,7 +7,7 @@
  *
  * The cases: AdamW on a 3-layer ReLU MLP (the issue's); AdamW on the predictor's shape
  * (LayerNorm + GELU trunk, masked sigmoid regression with the thesis loss and two
- * softmax heads, one a unit selector with loss weight 0.5); SGD with momentum, L2 decay,
+ * softmax heads, one a unit selector with loss weight 0.5, per-column loss weights); SGD with momentum, L2 decay,
  * clipping and a step schedule; Adam on residual LayerNorm blocks with cosine warm-up.
  */
 #include <setjmp.h>
@@ -29,7 +29,7 @@
 
 typedef struct spec {
     char arch[256], heads[256], loss[32], opt[32], schedule[32];
-    int mask, batch, steps;
+    int mask, colw, batch, steps;
     double lr, wd, momentum, clip, gamma;
     long step_size, warmup;
 } spec;
@@ -55,6 +55,8 @@ static void read_spec(const char *c, spec *s)
             strcpy(s->schedule, val);
         else if (!strcmp(key, "mask"))
             s->mask = !strcmp(val, "True");
+        else if (!strcmp(key, "colw"))
+            s->colw = !strcmp(val, "True");
         else if (!strcmp(key, "batch"))
             s->batch = atoi(val);
         else if (!strcmp(key, "steps"))
@@ -128,6 +130,11 @@ static void run_case(const char *c)
     nn_mlp m;
     assert_int_equal(nn_mlp_create(&m, &cfg, heads, nh, 1, err, sizeof err), 0);
     m.y_cols = (int)yc;
+    size_t wr, wc;
+    float *colw = read_npy(DIR "colw.npy", &wr, &wc);
+    assert_int_equal(wr * wc, yc);
+    if (s.colw)
+        m.column_weights = colw;
     snprintf(path, sizeof path, DIR "%s/init.safetensors", c);
     int rc = nn_mlp_load_weights(&m, path, err, sizeof err);
     if (rc)
@@ -194,6 +201,7 @@ static void run_case(const char *c)
     free(x);
     free(y);
     free(mask);
+    free(colw);
     free(want_loss);
 }
 
@@ -215,9 +223,10 @@ static void run_cli_case(const char *c, const char *flags)
              "%s train -q --x " DIR "x.npy --y " DIR "y.npy %s --arch '%s' --heads '%s' "
              "--loss %s --optimizer %s --lr %.9g --wd %.9g --batch %d --steps %d --no-shuffle "
              "--threads 2 --init " DIR "%s/init.safetensors --log " IMSYNTH_BINARY_DIR
-             "/nn_train_cli_%s.csv -o " IMSYNTH_BINARY_DIR "/nn_train_cli_%s.safetensors %s",
+             "/nn_train_cli_%s.csv -o " IMSYNTH_BINARY_DIR "/nn_train_cli_%s.safetensors %s %s",
              bin, s.mask ? "--mask " DIR "mask.npy" : "", s.arch, s.heads, s.loss, s.opt, s.lr,
-             s.wd, s.batch, s.steps, c, c, c, flags);
+             s.wd, s.batch, s.steps, c, c, c, s.colw ? "--column-weights " DIR "colw.npy" : "",
+             flags);
     assert_int_equal(system(cmd), 0);
     nn_mlp m;
     nn_optimizer opt;

@@ -14,7 +14,8 @@ C model mirrors (same state_dict names), initialises it with torch's own initial
     <case>/losses.npy           the loss of every step (float32)
     <case>/spec.txt             arch, heads, loss and optimiser the C test reads
 
-Shared by the cases: x.npy (64 x 16), y.npy (64 x 8), mask.npy (64 x 8).
+Shared by the cases: x.npy (64 x 16), y.npy (64 x 8), mask.npy (64 x 8), colw.npy (1 x 8,
+per-column loss weights, used where spec.txt says colw).
 
 safetensors is written and read by hand (the package is not installed here): an 8-byte
 little-endian header length, a JSON header, raw little-endian float32 data.
@@ -36,6 +37,7 @@ import torch.nn.functional as F
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 N, IN, YCOLS, BATCH, STEPS = 64, 16, 8, 16, 100
+COLUMN_WEIGHTS = np.array([[1, 2, 0.5, 1, 1.5, 1, 0.75, 1.25]], np.float32)
 
 
 # ---------------------------------------------------------------- safetensors by hand
@@ -177,9 +179,12 @@ def parse_heads(spec, ycols):
     return heads
 
 
-def head_loss(z, y, m, heads, loss):
-    """The C model's loss: per head sum(m w e) / max(1, sum m), weighted and summed."""
+def head_loss(z, y, m, heads, loss, colw=None):
+    """The C model's loss: per head sum(m c e) / max(1, sum m) (c: per-column weights),
+    weighted and summed."""
     total = 0.0
+    if colw is None:
+        colw = torch.ones(y.shape[1])
     for kind, yf, cnt, k, unit, of, w in heads:
         mm = m[:, yf:yf + cnt] if m is not None else torch.ones(z.shape[0], cnt)
         denom = mm.sum().clamp(min=1.0)
@@ -188,7 +193,7 @@ def head_loss(z, y, m, heads, loss):
             cls = torch.round(v * (k - 1)) if unit else v
             cls = torch.where(mm[:, 0] != 0, cls, torch.zeros_like(cls)).long()
             ce = F.cross_entropy(z[:, of:of + k], cls, reduction="none")
-            total = total + w * (ce * mm[:, 0]).sum() / denom
+            total = total + w * colw[yf] * (ce * mm[:, 0]).sum() / denom
             continue
         p = z[:, of:of + cnt]
         if kind == "sigmoid":
@@ -201,7 +206,7 @@ def head_loss(z, y, m, heads, loss):
             e = (p - t).abs()
         else:
             e = (p - t) ** 2 + 20.0 * (torch.log(p + 1e-7) - torch.log(t + 1e-7)) ** 2
-        total = total + w * (e * mm).sum() / denom
+        total = total + w * (e * mm * colw[yf:yf + cnt]).sum() / denom
     return total
 
 
@@ -211,9 +216,10 @@ CASES = {
     # the issue's case: a 3-layer ReLU MLP, one regression head, MSE, AdamW
     "adamw_mlp3": dict(arch="mlp:16-64-64-4,relu", heads="linear:0-3", loss="mse",
                        mask=False, opt="adamw", lr=1e-3, wd=1e-2),
-    # the predictor's shape: masked sigmoid regression (thesis loss) + two softmax heads
+    # the predictor's shape: masked sigmoid regression (thesis loss) + two softmax heads,
+    # per-column loss weights (colw.npy)
     "adamw_mixed": dict(arch="mlp:16-48-48-13,gelu,ln", heads="sigmoid:0-5,softmax:6/4,softmax:7/3:unit@0.5",
-                        loss="thesis", mask=True, opt="adamw", lr=2e-3, wd=1e-2),
+                        loss="thesis", mask=True, colw=True, opt="adamw", lr=2e-3, wd=1e-2),
     # SGD with momentum and L2 decay, clipped gradients, a step schedule, leaky ReLU
     "sgd_clip_step": dict(arch="mlp:16-32-32-4,leaky=0.1", heads="sigmoid:0-3", loss="l1",
                           mask=True, opt="sgd", lr=5e-2, wd=1e-3, momentum=0.9, clip=0.5,
@@ -255,13 +261,14 @@ def run_case(name, c, x, y, m):
         sched = torch.optim.lr_scheduler.LambdaLR(opt, cosine_lambda(c["warmup"], STEPS))
     X, Y = torch.from_numpy(x), torch.from_numpy(y)
     M = torch.from_numpy(m) if c["mask"] else None
+    colw = torch.from_numpy(COLUMN_WEIGHTS[0]) if c.get("colw") else None
     losses = []
     for step in range(STEPS):
         lo = (step * BATCH) % N
         xb, yb = X[lo:lo + BATCH], Y[lo:lo + BATCH]
         mb = M[lo:lo + BATCH] if M is not None else None
         opt.zero_grad()
-        loss = head_loss(model(xb), yb, mb, heads, c["loss"])
+        loss = head_loss(model(xb), yb, mb, heads, c["loss"], colw)
         loss.backward()
         if c.get("clip"):
             torch.nn.utils.clip_grad_norm_(model.parameters(), c["clip"])
@@ -279,7 +286,7 @@ def run_case(name, c, x, y, m):
                      {"optimizer.step": STEPS})
     np.save(os.path.join(d, "losses.npy"), np.array(losses, dtype=np.float32))
     with open(os.path.join(d, "spec.txt"), "w") as f:
-        for k in ("arch", "heads", "loss", "mask", "opt", "lr", "wd", "momentum", "clip",
+        for k in ("arch", "heads", "loss", "mask", "colw", "opt", "lr", "wd", "momentum", "clip",
                   "schedule", "step_size", "gamma", "warmup"):
             if k in c:
                 f.write("%s %s\n" % (k, c[k]))
@@ -336,6 +343,7 @@ def main():
     np.save(os.path.join(HERE, "x.npy"), x)
     np.save(os.path.join(HERE, "y.npy"), y)
     np.save(os.path.join(HERE, "mask.npy"), m)
+    np.save(os.path.join(HERE, "colw.npy"), COLUMN_WEIGHTS)
     for name in sorted(CASES):
         run_case(name, CASES[name], x, y, m)
     with open(os.path.join(HERE, "VERSIONS"), "w") as f:
