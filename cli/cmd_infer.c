@@ -99,6 +99,8 @@ int cmd_infer(int argc, char **argv)
         }
     m.threads = (int)threads;
     openblas_set_num_threads(1);
+    if (nn_blas_warning() && !getenv("OPENBLAS_CORETYPE"))
+        cli_error(sub, "warning: %s", nn_blas_warning());
     size_t cols = probs ? (size_t)m.cfg.width[m.cfg.n_linear] : (size_t)m.y_cols;
     out = malloc((size_t)batch * cols * sizeof(float));
     if (!out) {

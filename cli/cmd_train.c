@@ -471,6 +471,8 @@ int cmd_train(int argc, char **argv)
     // Our workers each run single-threaded sgemms in fixed pieces (bit-identical results);
     // OpenBLAS's own threads would change the sums' order and fight ours for the cores.
     openblas_set_num_threads(1);
+    if (nn_blas_warning() && !getenv("OPENBLAS_CORETYPE"))
+        cli_error(sub, "warning: %s", nn_blas_warning());
 
     bx = malloc((size_t)batch * in * sizeof(float));
     by = malloc((size_t)batch * yc * sizeof(float));

@@ -136,3 +136,15 @@ void linear_backward(float *din, float *dw, float *db, const float *dout, const 
     if (din)
         run_gemm(GEMM_DINPUT, din, dout, w, B, C, OC, threads);
 }
+
+const char *nn_blas_warning(void)
+{
+    // OpenBLAS picks its kernels from the CPU model at load time; a model newer than the
+    // library knows falls back to "Prescott" (SSE3), several times slower than the
+    // AVX-512 kernels the CPU can run (seen: OpenBLAS 0.3.21 on family 6 model 207).
+    const char *core = openblas_get_corename();
+    if (core && !strcmp(core, "Prescott") && __builtin_cpu_supports("avx512f"))
+        return "OpenBLAS runs its generic Prescott kernels on this AVX-512 CPU (a model it "
+               "does not know): set OPENBLAS_CORETYPE=SkylakeX for ~6x faster training";
+    return NULL;
+}

@@ -195,6 +195,19 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
  * PyTorch-compatible key names and the losses of its heads; nn_optimizer updates it;
  * checkpoints are safetensors with the optimiser state beside the weights.
  *
+ * From C, a training run is (error handling left out):
+ *     nn_mlp_config cfg;  nn_head heads[NN_MAX_HEADS];  nn_mlp m;  nn_optimizer opt;
+ *     nn_mlp_parse_arch("mlp:2000-512-512-59,gelu,ln", &cfg, err, sizeof err);
+ *     int nh = nn_heads_parse("sigmoid:0-40,softmax:41/9,softmax:42/9", y_cols, 59,
+ *                             NN_LOSS_THESIS, heads, NN_MAX_HEADS, err, sizeof err);
+ *     nn_mlp_create(&m, &cfg, heads, nh, seed, err, sizeof err);
+ *     m.y_cols = y_cols;  m.threads = 2;
+ *     nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
+ *     nn_optimizer_init(&opt, &oc, m.n_floats);
+ *     for each batch: nn_mlp_train_step(&m, &opt, x, y, mask, B, &loss);
+ *     nn_mlp_save(&m, &opt, "model.safetensors", err, sizeof err);
+ * and later nn_mlp_load(&m, NULL, path, ...) then nn_mlp_predict(&m, x, B, y).
+ *
  * Threads: linear layers split their sgemms into blocks fixed by the shapes alone (never
  * along a sum), and the threads take whole blocks, so every result is bit-identical
  * whatever the thread count. OpenBLAS must run single-threaded (openblas_set_num_threads(1)
@@ -210,6 +223,10 @@ void linear_forward(float *out, const float *in, const float *w, const float *b,
  * (skipped when din is NULL: the first layer's input needs no gradient). */
 void linear_backward(float *din, float *dw, float *db, const float *dout, const float *in,
                      const float *w, int B, int C, int OC, int threads);
+
+/* A message when OpenBLAS runs far below this CPU's speed (its detection fell back to
+ * generic kernels), else NULL; for commands to print once. */
+const char *nn_blas_warning(void);
 
 /* Elementwise activations over n floats, out of place (out may equal in for forward).
  * Backward: din = dout * f'(in), from the forward's input (relu, leaky_relu, gelu) or its
