@@ -308,14 +308,9 @@ static int add_param(nn_mlp *m, const char *name, int ndim, int64_t d0, int64_t 
     return 0;
 }
 
-/* Per linear layer l: index of its weight parameter (bias follows), and of its
- * LayerNorm weight (bias follows) or -1. Set by build_params. */
-typedef struct layer_index {
-    int linear[NN_MLP_MAX_LAYERS];
-    int norm[NN_MLP_MAX_LAYERS];
-} layer_index;
-
-static void build_params(nn_mlp *m, layer_index *ix)
+/* The parameter table: names as torch numbers the modules, shapes, offsets, and where
+ * each layer's tensors are (m->linear_param, m->norm_param). */
+static void build_params(nn_mlp *m)
 {
     const nn_mlp_config *c = &m->cfg;
     char name[64];
@@ -324,15 +319,15 @@ static void build_params(nn_mlp *m, layer_index *ix)
     m->n_floats = 0;
     for (int l = 0; l < c->n_linear; l++) {
         int last = l == c->n_linear - 1, in = c->width[l], out = c->width[l + 1];
-        ix->norm[l] = -1;
+        m->norm_param[l] = -1;
         if (c->residual && !last) {
-            ix->linear[l] = m->n_params;
+            m->linear_param[l] = m->n_params;
             snprintf(name, sizeof name, "trunk.%d.linear.weight", l);
             add_param(m, name, 2, out, in);
             snprintf(name, sizeof name, "trunk.%d.linear.bias", l);
             add_param(m, name, 1, out, 1);
             if (c->layernorm) {
-                ix->norm[l] = m->n_params;
+                m->norm_param[l] = m->n_params;
                 snprintf(name, sizeof name, "trunk.%d.norm.weight", l);
                 add_param(m, name, 1, out, 1);
                 snprintf(name, sizeof name, "trunk.%d.norm.bias", l);
@@ -341,7 +336,7 @@ static void build_params(nn_mlp *m, layer_index *ix)
             module++;
             continue;
         }
-        ix->linear[l] = m->n_params;
+        m->linear_param[l] = m->n_params;
         snprintf(name, sizeof name, "trunk.%d.weight", module);
         add_param(m, name, 2, out, in);
         snprintf(name, sizeof name, "trunk.%d.bias", module);
@@ -350,7 +345,7 @@ static void build_params(nn_mlp *m, layer_index *ix)
         if (last)
             break;
         if (c->layernorm) {
-            ix->norm[l] = m->n_params;
+            m->norm_param[l] = m->n_params;
             snprintf(name, sizeof name, "trunk.%d.weight", module);
             add_param(m, name, 1, out, 1);
             snprintf(name, sizeof name, "trunk.%d.bias", module);
@@ -363,11 +358,11 @@ static void build_params(nn_mlp *m, layer_index *ix)
     }
 }
 
-static void init_params(nn_mlp *m, const layer_index *ix, uint64_t seed)
+static void init_params(nn_mlp *m, uint64_t seed)
 {
     const nn_mlp_config *c = &m->cfg;
     for (int l = 0; l < c->n_linear; l++) {
-        int t = ix->linear[l];
+        int t = m->linear_param[l];
         nn_param *w = &m->params[t], *b = &m->params[t + 1];
         double fan_in = (double)c->width[l], fan_out = (double)c->width[l + 1];
         float *pw = m->weights + w->offset, *pb = m->weights + b->offset;
@@ -391,8 +386,8 @@ static void init_params(nn_mlp *m, const layer_index *ix, uint64_t seed)
                         ? (float)((2.0 * uniform_at(seed, (uint64_t)t + 1, i) - 1.0) /
                                   sqrt(fan_in))
                         : 0.0f;
-        if (ix->norm[l] >= 0) {
-            nn_param *g = &m->params[ix->norm[l]], *be = &m->params[ix->norm[l] + 1];
+        if (m->norm_param[l] >= 0) {
+            nn_param *g = &m->params[m->norm_param[l]], *be = &m->params[m->norm_param[l] + 1];
             for (size_t i = 0; i < g->size; i++) {
                 m->weights[g->offset + i] = 1.0f;
                 m->weights[be->offset + i] = 0.0f;
@@ -431,8 +426,7 @@ int nn_mlp_create(nn_mlp *m, const nn_mlp_config *cfg, const nn_head *heads, int
                 cfg->width[cfg->n_linear]);
         return -1;
     }
-    layer_index ix;
-    build_params(m, &ix);
+    build_params(m);
     m->weights = calloc(m->n_floats, sizeof(float));
     m->grads = calloc(m->n_floats, sizeof(float));
     if (!m->weights || !m->grads) {
@@ -440,7 +434,7 @@ int nn_mlp_create(nn_mlp *m, const nn_mlp_config *cfg, const nn_head *heads, int
         set_err(err, errlen, "model: out of memory for %zu parameters", m->n_floats);
         return -1;
     }
-    init_params(m, &ix, seed);
+    init_params(m, seed);
     m->threads = 1;
     m->dropout_seed = nn_mix64(seed + 0x243f6a8885a308d3ull);
     return 0;
@@ -549,23 +543,21 @@ static void trunk_forward(nn_mlp *m, const mlp_acts *a, const float *x, int B, i
                           long long step)
 {
     const nn_mlp_config *c = &m->cfg;
-    layer_index ix;
-    build_params(m, &ix); /* indices only: the layout is a pure function of cfg */
     const float *in = x;
     for (int l = 0; l < c->n_linear; l++) {
         int Ci = c->width[l], Co = c->width[l + 1];
         size_t n = (size_t)B * Co;
         // z (B,Co) = in (B,Ci) . W^T + b
-        linear_forward(a->z[l], in, param(m, m->weights, ix.linear[l]),
-                       param(m, m->weights, ix.linear[l] + 1), B, Ci, Co, m->threads);
+        linear_forward(a->z[l], in, param(m, m->weights, m->linear_param[l]),
+                       param(m, m->weights, m->linear_param[l] + 1), B, Ci, Co, m->threads);
         if (l == c->n_linear - 1)
             break;
         const float *pre = a->z[l];
         if (c->layernorm) {
             // norm (B,Co) = LayerNorm(z)
             layernorm_forward(a->norm[l], a->mean[l], a->rstd[l], a->z[l],
-                              param(m, m->weights, ix.norm[l]),
-                              param(m, m->weights, ix.norm[l] + 1), B, Co);
+                              param(m, m->weights, m->norm_param[l]),
+                              param(m, m->weights, m->norm_param[l] + 1), B, Co);
             pre = a->norm[l];
         }
         // act (B,Co) = f(pre)
@@ -712,8 +704,6 @@ static double heads_loss_backward(const nn_mlp *m, const mlp_acts *a, const floa
 static void trunk_backward(nn_mlp *m, const mlp_acts *a, const float *x, int B)
 {
     const nn_mlp_config *c = &m->cfg;
-    layer_index ix;
-    build_params(m, &ix);
     // dh: gradient of the current layer's output; starts as dloss/dlogits
     const float *dh = a->dlogits;
     float *d_in = a->d[0], *d_other = a->d[1], *t1 = a->d[2], *t2 = a->d[3];
@@ -739,7 +729,7 @@ static void trunk_backward(nn_mlp *m, const mlp_acts *a, const float *x, int B)
             dz = t2;
             if (c->layernorm) {
                 // backward of norm = LayerNorm(z): t1 = dz
-                int g = ix.norm[l];
+                int g = m->norm_param[l];
                 layernorm_backward(t1, m->grads + m->params[g].offset,
                                    m->grads + m->params[g + 1].offset, t2, a->z[l],
                                    param(m, m->weights, g), a->mean[l], a->rstd[l], B, Co);
@@ -747,7 +737,7 @@ static void trunk_backward(nn_mlp *m, const mlp_acts *a, const float *x, int B)
             }
         }
         // backward of z = in . W^T + b: dW, db += ...; d_in (B,Ci) = dz . W
-        int li = ix.linear[l];
+        int li = m->linear_param[l];
         linear_backward(l ? d_in : NULL, m->grads + m->params[li].offset,
                         m->grads + m->params[li + 1].offset, dz, in, param(m, m->weights, li), B,
                         Ci, Co, m->threads);

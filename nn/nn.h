@@ -408,6 +408,9 @@ typedef struct nn_mlp {
     nn_param params[4 * NN_MLP_MAX_LAYERS];
     size_t n_floats;
     float *weights, *grads; /* n_floats each, one block: the optimiser sees one array */
+    /* params[] index of linear layer l's weight (its bias follows) and of its LayerNorm's
+     * weight (bias follows), or -1 */
+    int linear_param[NN_MLP_MAX_LAYERS], norm_param[NN_MLP_MAX_LAYERS];
     int threads;            /* worker threads of the linear layers (>= 1) */
     uint64_t dropout_seed;
     /* Per-output loss weights, one per Y column (y_cols floats, caller-owned; NULL = all
