@@ -23,6 +23,10 @@ enum {
     /* Pieces are multiples of this many columns, keeping the sgemm kernels on full
      * vector widths. */
     LINEAR_BLOCK_ALIGN = 32,
+    /* ... and at least this wide: every piece packs the whole other operand again (the
+     * (B, C) input for a forward piece), so thin pieces spend their time copying (pieces
+     * of 64 columns packed as long as they multiplied, measured). */
+    LINEAR_MIN_PIECE = 256,
 };
 
 typedef enum gemm_kind { GEMM_FORWARD, GEMM_DINPUT, GEMM_DWEIGHT } gemm_kind;
@@ -79,6 +83,8 @@ static void run_gemm(gemm_kind kind, float *out, const float *a, const float *b,
     double macs = (double)B * C * OC;
     int pieces = macs < LINEAR_SPLIT_MIN_MACS ? 1 : LINEAR_BLOCKS;
     int piece = (job.split + pieces - 1) / pieces;
+    if (piece < LINEAR_MIN_PIECE)
+        piece = LINEAR_MIN_PIECE;
     piece = (piece + LINEAR_BLOCK_ALIGN - 1) / LINEAR_BLOCK_ALIGN * LINEAR_BLOCK_ALIGN;
     if (piece > job.split)
         piece = job.split;
