@@ -477,11 +477,12 @@ static void test_mlp_gradient_all_options(void **state)
 
 static void test_threads_bit_identical(void **state)
 {
-    // big enough that every sgemm is cut into pieces and run on several threads
+    // big enough that every sgemm is cut into pieces (widths 600: three pieces of at
+    // least 256 columns, linear.c) and the pieces run on several threads
     enum { B = 64, IN = 300, STEPS = 3 };
     char err[256];
     nn_mlp_config cfg;
-    assert_int_equal(nn_mlp_parse_arch("mlp:300-256-256-8,gelu,ln", &cfg, err, sizeof err), 0);
+    assert_int_equal(nn_mlp_parse_arch("mlp:300-600-600-8,gelu,ln", &cfg, err, sizeof err), 0);
     nn_head heads[2];
     assert_int_equal(nn_heads_parse("sigmoid:0-7", 8, 8, NN_LOSS_MSE, heads, 2, err, sizeof err),
                      1);
