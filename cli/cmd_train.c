@@ -66,8 +66,8 @@ static const char *const help =
     "  --steps N | --epochs E     length of the run (default 1 epoch)\n"
     "  --init W.safetensors       start from these weights (a torch state_dict of the same\n"
     "                             structure, or an imsynth checkpoint)\n"
-    "  --resume CKPT.safetensors  continue a run: model, heads, losses and optimiser state\n"
-    "                             from CKPT (its --arch/--heads/--loss are used), then\n"
+    "  --resume CKPT.safetensors  continue a run: model, heads, losses and optimiser\n"
+    "                             (settings and state) from CKPT, then\n"
     "                             --steps/--epochs more (give the same --seed and --batch\n"
     "                             to continue the same batch order)\n"
     "  --no-shuffle               rows in file order every epoch (default: a permutation\n"
@@ -356,8 +356,9 @@ int cmd_train(int argc, char **argv)
         cli_error(sub, "give --steps or --epochs, not both");
         return EXIT_USAGE;
     }
-    if (resume && init) {
-        cli_error(sub, "--init and --resume exclude each other");
+    if (resume && (init || arch || heads_spec)) {
+        cli_error(sub, "--resume takes the model from the checkpoint: no --init, --arch or "
+                       "--heads with it");
         return EXIT_USAGE;
     }
     // Parse the specs before reading any data: a typo is a usage error.
