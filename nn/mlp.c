@@ -417,6 +417,13 @@ int nn_mlp_create(nn_mlp *m, const nn_mlp_config *cfg, const nn_head *heads, int
             set_err(err, errlen, "model: head %d does not follow the previous heads' outputs", k);
             return -1;
         }
+        if (h->kind == NN_HEAD_LINEAR && h->loss == NN_LOSS_THESIS) {
+            set_err(err, errlen,
+                    "model: head %d is linear but the thesis loss takes log(p + 1e-7), which "
+                    "needs p > 0: use a sigmoid head",
+                    k);
+            return -1;
+        }
         outputs += w;
         if (h->y_first + h->count > m->y_cols)
             m->y_cols = h->y_first + h->count;

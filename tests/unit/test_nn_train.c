@@ -550,6 +550,12 @@ static void test_arch_and_heads_specs(void **state)
     for (size_t i = 0; i < sizeof bad_heads / sizeof bad_heads[0]; i++)
         assert_int_equal(nn_heads_parse(bad_heads[i], 42, 50, NN_LOSS_MSE, h, 8, err, sizeof err),
                          -1);
+    // the thesis loss needs positive predictions: not on a linear head
+    nn_mlp m;
+    assert_int_equal(nn_heads_parse("linear:0-3", 4, 4, NN_LOSS_THESIS, h, 8, err, sizeof err), 1);
+    assert_int_equal(nn_mlp_parse_arch("mlp:3-4", &cfg, err, sizeof err), 0);
+    assert_int_equal(nn_mlp_create(&m, &cfg, h, 1, 1, err, sizeof err), -1);
+    assert_non_null(strstr(err, "use a sigmoid head"));
     // outputs must add up to the network's width
     assert_int_equal(nn_heads_parse("sigmoid:0-3", 4, 5, NN_LOSS_MSE, h, 8, err, sizeof err),
                      -1);

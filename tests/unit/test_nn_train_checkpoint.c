@@ -31,6 +31,9 @@ static void make_model(nn_mlp *m, const char *arch, const char *heads)
     int nh = nn_heads_parse(heads, YC, cfg.width[cfg.n_linear], NN_LOSS_THESIS, h, 8, err,
                             sizeof err);
     assert_true(nh > 0);
+    for (int k = 0; k < nh; k++) /* the thesis loss is for sigmoid heads */
+        if (h[k].kind == NN_HEAD_LINEAR)
+            h[k].loss = NN_LOSS_MSE;
     assert_int_equal(nn_mlp_create(m, &cfg, h, nh, 5, err, sizeof err), 0);
 }
 
