@@ -638,6 +638,40 @@ static void test_data_checks(void **state)
     nn_mlp_free(&m);
 }
 
+static void test_batches(void **state)
+{
+    // an epoch of 10 rows in batches of 4: 4, 4, 2 (torch's drop_last=False)
+    long long epoch;
+    size_t first;
+    int count;
+    nn_step_batch(2, 10, 4, &epoch, &first, &count);
+    assert_true(epoch == 0 && first == 8 && count == 2);
+    nn_step_batch(3, 10, 4, &epoch, &first, &count);
+    assert_true(epoch == 1 && first == 0 && count == 4);
+    // shuffled orders: permutations, a pure function of (seed, epoch), new every epoch
+    enum { N = 50 };
+    size_t a[N], b[N], c[N];
+    nn_epoch_order(7, 3, 1, N, a);
+    nn_epoch_order(7, 3, 1, N, b);
+    nn_epoch_order(7, 4, 1, N, c);
+    assert_memory_equal(a, b, sizeof a);
+    int seen[N] = {0}, moved = 0, differs = 0;
+    for (int i = 0; i < N; i++) {
+        assert_true(a[i] < N && !seen[a[i]]);
+        seen[a[i]] = 1;
+        moved += a[i] != (size_t)i;
+        differs += a[i] != c[i];
+    }
+    assert_true(moved > N / 2 && differs > N / 2);
+    nn_epoch_order(7, 3, 0, N, a); /* --no-shuffle: file order */
+    for (int i = 0; i < N; i++)
+        assert_true(a[i] == (size_t)i);
+    float src[6] = {0, 1, 2, 3, 4, 5}, dst[4];
+    size_t rows[2] = {2, 0};
+    nn_gather_rows(dst, src, 2, rows, 2);
+    assert_true(dst[0] == 4 && dst[1] == 5 && dst[2] == 0 && dst[3] == 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -653,6 +687,7 @@ int main(void)
         cmocka_unit_test(test_schedules),
         cmocka_unit_test(test_clipping),
         cmocka_unit_test(test_data_checks),
+        cmocka_unit_test(test_batches),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
