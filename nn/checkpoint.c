@@ -15,6 +15,8 @@
  *           optimizer.momentum_buffer.<name> (SGD with momentum): torch's state names
  */
 #include <errno.h>
+#include <float.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -247,6 +249,13 @@ static int load_optimizer(const nn_mlp *m, nn_optimizer *opt, const nn_safetenso
         double v;
         if (meta_number(st, fields[f].key, &v, err, errlen))
             return -1;
+        // in range before any conversion (an out-of-range cast is undefined)
+        int ok = fields[f].f ? fabs(v) <= FLT_MAX : v >= 0 && v <= 0x1p53 && v == floor(v);
+        if (!ok) {
+            set_err(err, errlen, "%s: metadata \"%s\" = %g is out of range", st->path,
+                    fields[f].key, v);
+            return -1;
+        }
         if (fields[f].f)
             *fields[f].f = (float)v;
         else
@@ -255,7 +264,7 @@ static int load_optimizer(const nn_mlp *m, nn_optimizer *opt, const nn_safetenso
     double step;
     if (meta_number(st, "optimizer.step", &step, err, errlen))
         return -1;
-    if (step < 0 || step != (double)(long long)step) {
+    if (!(step >= 0 && step <= 0x1p53) || step != floor(step)) {
         set_err(err, errlen, "%s: metadata optimizer.step = %g is not a step count", st->path,
                 step);
         return -1;

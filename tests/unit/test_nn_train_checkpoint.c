@@ -221,6 +221,23 @@ static void test_bad_checkpoints(void **state)
     at[18] = 'x';
     write_bytes(OUT "lying.safetensors", lie, n);
     expect_load_error(OUT "lying.safetensors", "optimizer.step");
+    // a step count no integer holds (converting it would be undefined behaviour)
+    unsigned char *huge = malloc(n + 8);
+    at = find_bytes(good, n, "\"optimizer.step\":\"0\"", 20);
+    size_t pos = (size_t)((unsigned char *)at - good) + 18;
+    memcpy(huge, good, pos);
+    memcpy(huge + pos, "1e300", 5);
+    memcpy(huge + pos + 5, good + pos + 1, n - pos - 1);
+    // the header grew by 4 bytes: fix its length (little-endian u64 at the start)
+    uint64_t hl = 0;
+    for (int b = 7; b >= 0; b--)
+        hl = hl << 8 | good[b];
+    hl += 4;
+    for (int b = 0; b < 8; b++)
+        huge[b] = (unsigned char)(hl >> (8 * b));
+    write_bytes(OUT "lying.safetensors", huge, n + 4);
+    expect_load_error(OUT "lying.safetensors", "optimizer.step = 1e+300");
+    free(huge);
     free(lie);
 
     // not ours: torch's state_dict has no imsynth metadata
