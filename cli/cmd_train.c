@@ -74,8 +74,11 @@ static const char *const help =
     "                             per epoch from --seed)\n"
     "  --seed S                   initial weights, shuffling and dropout (default 1)\n"
     "  --threads N                worker threads (default: online CPUs)\n"
-    "  --log LOSSES.csv           step,epoch,loss,lr per step; the loss curve beside it as\n"
-    "                             LOSSES.svg\n"
+    "  --val-x VX.npy --val-y VY.npy [--val-mask VM.npy]\n"
+    "                             a validation set: its loss (eval mode: no dropout) after\n"
+    "                             every epoch and at the end\n"
+    "  --log LOSSES.csv           step,epoch,loss,lr,val_loss per step (val_loss empty but\n"
+    "                             where computed); the loss curve beside it as LOSSES.svg\n"
     "  -o, --output MODEL.safetensors  the checkpoint (required)\n"
     "  -q, --quiet                no progress on stderr\n";
 
@@ -184,8 +187,8 @@ static int write_loss_svg(const char *path, const double *loss, long long n, cha
 }
 
 static int write_loss_csv(const char *path, const double *loss, const float *lr,
-                          long long first_step, long long n, size_t rows, int batch, char *err,
-                          size_t errlen)
+                          const double *val, long long first_step, long long n, size_t rows,
+                          int batch, char *err, size_t errlen)
 {
     char tmp[1100];
     if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
@@ -197,13 +200,16 @@ static int write_loss_csv(const char *path, const double *loss, const float *lr,
         snprintf(err, errlen, "%s: %s", tmp, strerror(errno));
         return -1;
     }
-    fprintf(f, "step,epoch,loss,lr\n");
+    fprintf(f, "step,epoch,loss,lr,val_loss\n");
     for (long long i = 0; i < n; i++) {
         long long epoch;
         size_t first;
         int count;
         nn_step_batch(first_step + i, rows, batch, &epoch, &first, &count);
-        fprintf(f, "%lld,%lld,%.9g,%.9g\n", first_step + i, epoch, loss[i], lr[i]);
+        fprintf(f, "%lld,%lld,%.9g,%.9g,", first_step + i, epoch, loss[i], lr[i]);
+        if (!isnan(val[i]))
+            fprintf(f, "%.9g", val[i]);
+        fputc('\n', f);
     }
     if (fclose(f)) {
         snprintf(err, errlen, "%s: write error", tmp);
@@ -239,7 +245,8 @@ int cmd_train(int argc, char **argv)
         return EXIT_OK;
     }
     const char *x_path = NULL, *y_path = NULL, *m_path = NULL, *arch = NULL, *heads_spec = NULL,
-               *init = NULL, *resume = NULL, *colw_path = NULL, *log_path = NULL, *out_path = NULL;
+               *init = NULL, *resume = NULL, *colw_path = NULL, *val_x_path = NULL,
+               *val_y_path = NULL, *val_m_path = NULL, *log_path = NULL, *out_path = NULL;
     int loss_kind = NN_LOSS_MSE, opt_kind = NN_OPT_ADAMW, schedule = NN_SCHEDULE_CONSTANT;
     int shuffle = 1, quiet = 0;
     long long batch = 64, steps = -1, epochs = -1, seed = 1, warmup = 0, step_size = -1,
@@ -278,6 +285,12 @@ int cmd_train(int argc, char **argv)
             arch = v;
         else if (!strcmp(a, "--heads"))
             heads_spec = v;
+        else if (!strcmp(a, "--val-x"))
+            val_x_path = v;
+        else if (!strcmp(a, "--val-y"))
+            val_y_path = v;
+        else if (!strcmp(a, "--val-mask"))
+            val_m_path = v;
         else if (!strcmp(a, "--column-weights"))
             colw_path = v;
         else if (!strcmp(a, "--init"))
@@ -352,6 +365,10 @@ int cmd_train(int argc, char **argv)
         cli_error(sub, "need --x, --y, --arch (or --resume) and -o (see --help)");
         return EXIT_USAGE;
     }
+    if (!val_x_path != !val_y_path || (val_m_path && !val_x_path)) {
+        cli_error(sub, "--val-x and --val-y go together (--val-mask with them)");
+        return EXIT_USAGE;
+    }
     if (steps >= 0 && epochs >= 0) {
         cli_error(sub, "give --steps or --epochs, not both");
         return EXIT_USAGE;
@@ -372,7 +389,9 @@ int cmd_train(int argc, char **argv)
     int rc = EXIT_FAILURE_WORK;
     size_t n = 0, in = 0, ny = 0, yc = 0, nm = 0, mc = 0;
     float *x = NULL, *y = NULL, *mask = NULL, *colw = NULL, *bx = NULL, *by = NULL, *bm = NULL, *lrs = NULL;
-    double *losses = NULL;
+    double *losses = NULL, *val_losses = NULL;
+    float *vx = NULL, *vy = NULL, *vm = NULL;
+    size_t vn = 0;
     size_t *order = NULL;
     nn_mlp model = {0};
     nn_optimizer opt = {0};
@@ -444,6 +463,23 @@ int cmd_train(int argc, char **argv)
         cli_error(sub, "%s / %s: %s", x_path, y_path, err);
         goto done;
     }
+    if (val_x_path) {
+        size_t vin, vny, vyc, vnm = 0, vmc = 0;
+        if (!(vx = read_array(sub, "--val-x", val_x_path, &vn, &vin)) ||
+            !(vy = read_array(sub, "--val-y", val_y_path, &vny, &vyc)) ||
+            (val_m_path && !(vm = read_array(sub, "--val-mask", val_m_path, &vnm, &vmc))))
+            goto done;
+        if (vin != in || vny != vn || vyc != yc || (vm && (vnm != vn || vmc != yc)) || !vn) {
+            cli_error(sub, "validation set %s (%zu x %zu), %s (%zu x %zu): need X's %zu and Y's "
+                      "%zu columns, the same rows (and the mask Y's shape)",
+                      val_x_path, vn, vin, val_y_path, vny, vyc, in, yc);
+            goto done;
+        }
+        if (nn_mlp_check_data(&model, vx, vy, vm, vn, err, sizeof err)) {
+            cli_error(sub, "%s / %s: %s", val_x_path, val_y_path, err);
+            goto done;
+        }
+    }
     long long per_epoch = (long long)((n + (size_t)batch - 1) / (size_t)batch);
     long long run = steps >= 0 ? steps : epochs >= 0 ? epochs * per_epoch : per_epoch;
     if (!resume) {
@@ -480,8 +516,9 @@ int cmd_train(int argc, char **argv)
     bm = mask ? malloc((size_t)batch * yc * sizeof(float)) : NULL;
     order = malloc(n * sizeof *order);
     losses = malloc((size_t)(run ? run : 1) * sizeof *losses);
+    val_losses = malloc((size_t)(run ? run : 1) * sizeof *val_losses);
     lrs = malloc((size_t)(run ? run : 1) * sizeof *lrs);
-    if (!bx || !by || (mask && !bm) || !order || !losses || !lrs) {
+    if (!bx || !by || (mask && !bm) || !order || !losses || !val_losses || !lrs) {
         cli_error(sub, "out of memory");
         goto done;
     }
@@ -514,6 +551,20 @@ int cmd_train(int argc, char **argv)
                       losses[s]);
             goto done;
         }
+        // validation (eval mode, whole set at once) after each epoch's last step
+        val_losses[s] = NAN;
+        long long next_epoch;
+        size_t next_first;
+        int next_count;
+        nn_step_batch(step + 1, n, (int)batch, &next_epoch, &next_first, &next_count);
+        if (vx && (next_epoch != epoch || s == run - 1)) {
+            if (nn_mlp_evaluate(&model, vx, vy, vm, (int)vn, &val_losses[s])) {
+                cli_error(sub, "out of memory evaluating %s", val_x_path);
+                goto done;
+            }
+            if (!quiet)
+                fprintf(stderr, "epoch %lld: validation loss %.6g\n", epoch, val_losses[s]);
+        }
         recent += losses[s];
         recent_n++;
         double t = now_seconds();
@@ -540,8 +591,8 @@ int cmd_train(int argc, char **argv)
             snprintf(svg, sizeof svg, "%.*s.svg", (int)(len - 4), log_path);
         else
             snprintf(svg, sizeof svg, "%s.svg", log_path);
-        if (write_loss_csv(log_path, losses, lrs, first_step, run, n, (int)batch, err,
-                           sizeof err) ||
+        if (write_loss_csv(log_path, losses, lrs, val_losses, first_step, run, n, (int)batch,
+                           err, sizeof err) ||
             write_loss_svg(svg, losses, run, err, sizeof err)) {
             cli_error(sub, "%s", err);
             goto done;
@@ -562,6 +613,10 @@ done:
     free(bm);
     free(order);
     free(losses);
+    free(val_losses);
+    free(vx);
+    free(vy);
+    free(vm);
     free(lrs);
     return rc;
 }

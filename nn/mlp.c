@@ -776,6 +776,18 @@ int nn_mlp_forward_backward(nn_mlp *m, const float *x, const float *y, const flo
     return 0;
 }
 
+int nn_mlp_evaluate(nn_mlp *m, const float *x, const float *y, const float *mask, int B,
+                    double *loss)
+{
+    mlp_acts a;
+    if (ensure_acts(m, B, &a))
+        return -1;
+    trunk_forward(m, &a, x, B, 0, 0);
+    heads_forward(m, &a, B);
+    *loss = heads_loss_backward(m, &a, y, mask, B); /* dlogits is scratch here */
+    return 0;
+}
+
 int nn_mlp_train_step(nn_mlp *m, nn_optimizer *opt, const float *x, const float *y,
                       const float *mask, int B, double *loss)
 {

@@ -445,6 +445,10 @@ int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y);
  * memory). */
 int nn_mlp_forward_backward(nn_mlp *m, const float *x, const float *y, const float *mask,
                             int B, long long step, double *loss);
+/* The loss over a batch in eval mode (no dropout), without touching grads: for
+ * validation sets. Returns 0 or -1 (out of memory). */
+int nn_mlp_evaluate(nn_mlp *m, const float *x, const float *y, const float *mask, int B,
+                    double *loss);
 /* forward_backward then one optimiser step. */
 int nn_mlp_train_step(nn_mlp *m, nn_optimizer *opt, const float *x, const float *y,
                       const float *mask, int B, double *loss);

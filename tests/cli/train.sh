@@ -41,8 +41,12 @@ expect_stderr "names the file" "short.npy"
 
 # Train, log, infer: shapes and files as documented.
 "$imsynth" train $common --arch "$arch" --heads "$heads" --batch 16 --steps 12 --threads 1 \
+    --val-x "$ref/x.npy" --val-y "$ref/y.npy" --val-mask "$ref/mask.npy" \
     --log "$tmp/loss.csv" -o "$tmp/a.safetensors" > "$tmp/out"; check "train" 0 $?
 [ "$(wc -l < "$tmp/loss.csv")" = 13 ] && echo "ok: 12 logged steps" || { echo "FAIL: loss.csv"; failures=$((failures + 1)); }
+# 64 rows in batches of 16: epochs end at steps 3, 7, 11, where the validation loss is
+[ "$(grep -c ',[0-9][0-9.e+-]*$' "$tmp/loss.csv")" = 3 ] && grep -q '^11,2,.*,[0-9]' "$tmp/loss.csv" \
+    && echo "ok: validation loss at each epoch's end" || { echo "FAIL: val_loss column"; cat "$tmp/loss.csv"; failures=$((failures + 1)); }
 grep -q "<polyline" "$tmp/loss.svg" && echo "ok: loss curve SVG" || { echo "FAIL: loss.svg"; failures=$((failures + 1)); }
 "$imsynth" infer "$tmp/a.safetensors" --x "$ref/x.npy" -o "$tmp/p.npy" > "$tmp/out"; check "infer" 0 $?
 expect_stdout "Y-shaped predictions" "64 x 8 float32"

@@ -446,6 +446,11 @@ static void test_mlp_gradient_all_options(void **state)
     assert_int_equal(nn_mlp_check_data(&m, x, y, mask, B, err, sizeof err), 0);
     double loss;
     assert_int_equal(nn_mlp_forward_backward(&m, x, y, mask, B, 5, &loss), 0);
+    // eval mode has no dropout: another loss, and the gradients stay untouched
+    double eval;
+    float g0 = m.grads[0];
+    assert_int_equal(nn_mlp_evaluate(&m, x, y, mask, B, &eval), 0);
+    assert_true(isfinite(eval) && eval != loss && m.grads[0] == g0);
     float *g = malloc(m.n_floats * sizeof(float));
     memcpy(g, m.grads, m.n_floats * sizeof(float));
     int checked = 0;
@@ -498,10 +503,13 @@ static void test_threads_bit_identical(void **state)
         nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
         nn_optimizer opt;
         assert_int_equal(nn_optimizer_init(&opt, &oc, m.n_floats), 0);
-        for (int t = 0; t < STEPS; t++) {
-            double loss;
+        double loss = 0, eval;
+        for (int t = 0; t < STEPS; t++)
             assert_int_equal(nn_mlp_train_step(&m, &opt, x, y, NULL, B, &loss), 0);
-        }
+        // no dropout here: evaluation repeats the training forward's loss exactly
+        assert_int_equal(nn_mlp_forward_backward(&m, x, y, NULL, B, 0, &loss), 0);
+        assert_int_equal(nn_mlp_evaluate(&m, x, y, NULL, B, &eval), 0);
+        assert_true(eval == loss);
         result[r] = malloc(m.n_floats * sizeof(float));
         memcpy(result[r], m.weights, m.n_floats * sizeof(float));
         if (r)

@@ -250,12 +250,13 @@ static void run_cli_case(const char *c, const char *flags)
     assert_non_null(f);
     char line[256];
     assert_non_null(fgets(line, sizeof line, f));
-    assert_string_equal(line, "step,epoch,loss,lr\n");
+    assert_string_equal(line, "step,epoch,loss,lr,val_loss\n");
     double worst_loss = 0;
     int rows = 0;
     long long step, epoch;
     double loss, lr;
-    while (fscanf(f, "%lld,%lld,%lf,%lf", &step, &epoch, &loss, &lr) == 4) {
+    while (fgets(line, sizeof line, f) &&
+           sscanf(line, "%lld,%lld,%lf,%lf", &step, &epoch, &loss, &lr) == 4) {
         assert_true(step == rows && rows < (int)nl);
         worst_loss = fmax(worst_loss, fabs(loss - want[rows]) / fabs(want[rows]));
         rows++;
