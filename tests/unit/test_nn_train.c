@@ -167,6 +167,23 @@ static void test_linear_gradients(void **state)
     }
     assert_true(scaled_err(dw, gw, OC * C) < GRAD_TOL);
     assert_true(scaled_err(db, gb, OC) < GRAD_TOL);
+    // and dw by finite differences too, through the same double forward
+    double fw[OC * C];
+    float wcopy[OC * C];
+    memcpy(wcopy, w, sizeof w);
+    for (int i = 0; i < OC * C; i++) {
+        double keep = wcopy[i], xd[B * C];
+        for (int k = 0; k < B * C; k++)
+            xd[k] = x[k];
+        c.w = wcopy;
+        wcopy[i] = (float)(keep + 1e-2);
+        double up = d_linear(&c, xd), hu = (double)wcopy[i] - keep;
+        wcopy[i] = (float)(keep - 1e-2);
+        double down = d_linear(&c, xd), hd = keep - (double)wcopy[i];
+        wcopy[i] = (float)keep;
+        fw[i] = (up - down) / (hu + hd); /* exact: L is linear in w */
+    }
+    assert_true(scaled_err(dw, fw, OC * C) < GRAD_TOL);
     // the parameter gradients accumulate: a second backward doubles them
     linear_backward(NULL, dw, db, dout, x, w, B, C, OC, 1);
     for (int k = 0; k < OC; k++)
