@@ -115,10 +115,10 @@ static double now_seconds(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
-/* The loss curve as a small SVG line chart: log-scale loss over steps, with min/max
- * labels, written through a temporary file. */
-static int write_loss_svg(const char *path, const double *loss, long long n, char *err,
-                          size_t errlen)
+/* The loss curve as a small SVG line chart: log-scale training loss over steps (blue),
+ * validation losses as red dots, min/max labels; written through a temporary file. */
+static int write_loss_svg(const char *path, const double *loss, const double *val, long long n,
+                          char *err, size_t errlen)
 {
     char tmp[1100];
     if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
@@ -133,9 +133,12 @@ static int write_loss_svg(const char *path, const double *loss, long long n, cha
     const double W = 640, H = 360, L = 70, R = 20, T = 20, Bm = 40;
     double lo = INFINITY, hi = -INFINITY;
     for (long long i = 0; i < n; i++)
-        if (loss[i] > 0 && isfinite(loss[i])) {
-            lo = fmin(lo, loss[i]);
-            hi = fmax(hi, loss[i]);
+        for (int k = 0; k < 2; k++) {
+            double v = k ? val[i] : loss[i];
+            if (v > 0 && isfinite(v)) {
+                lo = fmin(lo, v);
+                hi = fmax(hi, v);
+            }
         }
     if (!(lo <= hi)) {
         lo = 1e-3;
@@ -155,7 +158,9 @@ static int write_loss_svg(const char *path, const double *loss, long long n, cha
     fprintf(f, "<text x=\"%g\" y=\"%g\">0</text>\n", L, H - Bm + 16);
     fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%lld</text>\n", W - R, H - Bm + 16,
             n);
-    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"middle\">step (loss, log scale)</text>\n",
+    fprintf(f,
+            "<text x=\"%g\" y=\"%g\" text-anchor=\"middle\">step (training loss, log scale; "
+            "red: validation)</text>\n",
             (W + L - R) / 2, H - 8);
     fprintf(f, "<polyline fill=\"none\" stroke=\"#1f77b4\" stroke-width=\"1.2\" points=\"");
     // at most ~2000 points: the mean loss of each chunk of steps
@@ -172,7 +177,13 @@ static int write_loss_svg(const char *path, const double *loss, long long n, cha
                                         : H - Bm;
         fprintf(f, "%.1f,%.1f ", x, y);
     }
-    fprintf(f, "\"/>\n</svg>\n");
+    fprintf(f, "\"/>\n");
+    for (long long i = 0; i < n; i++)
+        if (val[i] > 0 && isfinite(val[i]))
+            fprintf(f, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.5\" fill=\"#d62728\"/>\n",
+                    L + (W - L - R) * (double)i / (double)(n > 1 ? n - 1 : 1),
+                    T + (H - T - Bm) * (lhi - log10(val[i])) / (lhi - llo));
+    fprintf(f, "</svg>\n");
     if (fclose(f)) {
         snprintf(err, errlen, "%s: write error", tmp);
         remove(tmp);
@@ -593,7 +604,7 @@ int cmd_train(int argc, char **argv)
             snprintf(svg, sizeof svg, "%s.svg", log_path);
         if (write_loss_csv(log_path, losses, lrs, val_losses, first_step, run, n, (int)batch,
                            err, sizeof err) ||
-            write_loss_svg(svg, losses, run, err, sizeof err)) {
+            write_loss_svg(svg, losses, val_losses, run, err, sizeof err)) {
             cli_error(sub, "%s", err);
             goto done;
         }
