@@ -1,5 +1,6 @@
 /* imsynth infer: predictions of a trained model (imsynth train) for rows of X, as .npy. */
 #include <cblas.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -93,7 +94,7 @@ int cmd_infer(int argc, char **argv)
         goto done;
     }
     for (size_t i = 0; i < n * in; i++)
-        if (x[i] != x[i] || x[i] - x[i] != 0.0f) {
+        if (!isfinite(x[i])) {
             cli_error(sub, "%s: row %zu column %zu is not finite", x_path, i / in, i % in);
             goto done;
         }
