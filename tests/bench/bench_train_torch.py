@@ -9,6 +9,7 @@ AdamW with torch's defaults (single-tensor and foreach implementations both time
 data of 8 batches; training samples/s after 3 warm-up steps and the median latency of
 one-sample inference under torch.no_grad().
 """
+import os
 import sys
 import time
 
@@ -63,7 +64,7 @@ for foreach in (False, True):
             torch.sigmoid(model(x[r % rows:r % rows + 1]))
             lat.append(time.perf_counter() - a)
     lat.sort()
-    print("pytorch  %s batch %d threads %d (AdamW foreach=%s): train %.1f samples/s "
-          "(%.2f ms/step), infer 1 sample %.3f ms (median of 200), last loss %.5f"
-          % (arch, batch, threads, foreach, steps * batch / dt, 1e3 * dt / steps,
-             1e3 * lat[100], loss))
+    print("pytorch  %s batch %d threads %d, OpenBLAS threads %s (AdamW foreach=%s): train "
+          "%.1f samples/s (%.2f ms/step), infer 1 sample %.3f ms (median of 200), last loss %.5f"
+          % (arch, batch, threads, os.environ.get("OPENBLAS_NUM_THREADS", "default"), foreach,
+             steps * batch / dt, 1e3 * dt / steps, 1e3 * lat[100], loss))
