@@ -491,6 +491,8 @@ int cmd_train(int argc, char **argv)
             goto done;
         }
     }
+    if ((size_t)batch > n) /* one batch is the whole set: allocate no more than that */
+        batch = (long long)n;
     long long per_epoch = (long long)((n + (size_t)batch - 1) / (size_t)batch);
     long long run = steps >= 0 ? steps : epochs >= 0 ? epochs * per_epoch : per_epoch;
     if (!resume) {
