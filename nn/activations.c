@@ -23,12 +23,51 @@ void leaky_relu_backward(float *din, const float *dout, const float *in, size_t 
         din[i] = in[i] > 0.0f ? dout[i] : dout[i] * slope;
 }
 
+/*
+ * erf and exp for GELU, GELU_LANES at a time. With AVX-512 and glibc's libmvec (its
+ * 16-lane erff/expf, a few ulp like the scalar ones) the GELU of a (128, 512) layer costs
+ * a tenth of the scalar calls, which were 7% of a training step. Every element goes
+ * through the same function (a short tail is padded into a full vector), so a value's
+ * GELU does not depend on its position or on n.
+ */
+#if defined(__AVX512F__) && defined(IMSYNTH_HAVE_LIBMVEC)
+#include <immintrin.h>
+__m512 _ZGVeN16v_erff(__m512 x);
+__m512 _ZGVeN16v_expf(__m512 x);
+enum { GELU_LANES = 16 };
+static void erf_lanes(float *v)
+{
+    _mm512_storeu_ps(v, _ZGVeN16v_erff(_mm512_loadu_ps(v)));
+}
+static void exp_lanes(float *v)
+{
+    _mm512_storeu_ps(v, _ZGVeN16v_expf(_mm512_loadu_ps(v)));
+}
+#else
+enum { GELU_LANES = 16 };
+static void erf_lanes(float *v)
+{
+    for (int k = 0; k < GELU_LANES; k++)
+        v[k] = erff(v[k]);
+}
+static void exp_lanes(float *v)
+{
+    for (int k = 0; k < GELU_LANES; k++)
+        v[k] = expf(v[k]);
+}
+#endif
+
 void gelu_forward(float *out, const float *in, size_t n)
 {
     // out = x Phi(x) = 0.5 x (1 + erf(x / sqrt 2))
-    for (size_t i = 0; i < n; i++) {
-        float x = in[i];
-        out[i] = 0.5f * x * (1.0f + erff(x * (float)M_SQRT1_2));
+    for (size_t i = 0; i < n; i += GELU_LANES) {
+        float e[GELU_LANES] = {0};
+        size_t m = n - i < GELU_LANES ? n - i : GELU_LANES;
+        for (size_t k = 0; k < m; k++)
+            e[k] = in[i + k] * (float)M_SQRT1_2;
+        erf_lanes(e);
+        for (size_t k = 0; k < m; k++)
+            out[i + k] = 0.5f * in[i + k] * (1.0f + e[k]);
     }
 }
 
@@ -36,11 +75,21 @@ void gelu_backward(float *din, const float *dout, const float *in, size_t n)
 {
     // backward of out = x Phi(x): d/dx = Phi(x) + x phi(x), phi the normal density
     const float inv_sqrt_2pi = 0.3989422804014327f;
-    for (size_t i = 0; i < n; i++) {
-        float x = in[i];
-        float cdf = 0.5f * (1.0f + erff(x * (float)M_SQRT1_2));
-        float pdf = inv_sqrt_2pi * expf(-0.5f * x * x);
-        din[i] = dout[i] * (cdf + x * pdf);
+    for (size_t i = 0; i < n; i += GELU_LANES) {
+        float e[GELU_LANES] = {0}, g[GELU_LANES] = {0};
+        size_t m = n - i < GELU_LANES ? n - i : GELU_LANES;
+        for (size_t k = 0; k < m; k++) {
+            float x = in[i + k];
+            e[k] = x * (float)M_SQRT1_2;
+            g[k] = -0.5f * x * x;
+        }
+        erf_lanes(e);
+        exp_lanes(g);
+        for (size_t k = 0; k < m; k++) {
+            float x = in[i + k];
+            float cdf = 0.5f * (1.0f + e[k]), pdf = inv_sqrt_2pi * g[k];
+            din[i + k] = dout[i + k] * (cdf + x * pdf);
+        }
     }
 }
 
