@@ -23,6 +23,8 @@ static const subcommand subcommands[] = {
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
     {"datagen", cmd_datagen, "make a training dataset: sample, render, describe, store (resumable)"},
     {"dataset", cmd_dataset, "inspect, merge, export or view a dataset (info|merge|export|sheet)"},
+    {"train", cmd_train, "train an MLP with heads on X.npy -> Y.npy (safetensors checkpoint)"},
+    {"infer", cmd_infer, "predictions of a trained model for X.npy, as .npy"},
 };
 
 void cli_error(const char *sub, const char *fmt, ...)

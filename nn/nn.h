@@ -302,6 +302,321 @@ void mnv2_workspace_free(mnv2_workspace *ws);
  * signed mapping is applied here): out is n rows of mnv2_descriptor_offsets() floats. */
 void mnv2_describe(mnv2_workspace *ws, const float *in, int n, float *out);
 
+/* ================================================================ training ========= */
+/*
+ * Training in C (issue 13), in llm.c's style: every layer is an explicit *_forward and
+ * *_backward over plain float arrays, row-major, B rows (samples) of C features. A
+ * backward pass ADDS into parameter gradients (the caller zeroes them once per step) and
+ * OVERWRITES the gradient of its input. The MLP (nn_mlp) strings them together with
+ * PyTorch-compatible key names and the losses of its heads; nn_optimizer updates it;
+ * checkpoints are safetensors with the optimiser state beside the weights.
+ *
+ * From C, a training run is (error handling left out):
+ *     nn_mlp_config cfg;  nn_head heads[NN_MAX_HEADS];  nn_mlp m;  nn_optimizer opt;
+ *     nn_mlp_parse_arch("mlp:2000-512-512-59,gelu,ln", &cfg, err, sizeof err);
+ *     int nh = nn_heads_parse("sigmoid:0-40,softmax:41/9,softmax:42/9", y_cols, 59,
+ *                             NN_LOSS_THESIS, heads, NN_MAX_HEADS, err, sizeof err);
+ *     nn_mlp_create(&m, &cfg, heads, nh, seed, err, sizeof err);
+ *     m.y_cols = y_cols;  m.threads = 2;
+ *     nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
+ *     nn_optimizer_init(&opt, &oc, m.n_floats);
+ *     for each batch: nn_mlp_train_step(&m, &opt, x, y, mask, B, &loss);
+ *     nn_mlp_save(&m, &opt, "model.safetensors", err, sizeof err);
+ * and later nn_mlp_load(&m, NULL, path, ...) then nn_mlp_predict(&m, x, B, y).
+ *
+ * Threads: linear layers split their sgemms into blocks fixed by the shapes alone (never
+ * along a sum), and the threads take whole blocks, so every result is bit-identical
+ * whatever the thread count. OpenBLAS must run single-threaded (openblas_set_num_threads(1)
+ * or OPENBLAS_NUM_THREADS=1): its own split could change the order of a sum.
+ */
+
+/* ---------------------------------------------------------------- layers ----------- */
+
+/* out (B,OC) = in (B,C) . w^T + b; w (OC,C) as torch stores it, b (OC) or NULL. */
+void linear_forward(float *out, const float *in, const float *w, const float *b, int B, int C,
+                    int OC, int threads);
+/* dw (OC,C) += dout^T . in, db (OC) += column sums of dout (if db), din (B,C) = dout . w
+ * (skipped when din is NULL: the first layer's input needs no gradient). */
+void linear_backward(float *din, float *dw, float *db, const float *dout, const float *in,
+                     const float *w, int B, int C, int OC, int threads);
+
+/* A message when OpenBLAS runs far below this CPU's speed (its detection fell back to
+ * generic kernels), else NULL; for commands to print once. */
+const char *nn_blas_warning(void);
+
+/* Elementwise activations over n floats, out of place (out may equal in for forward).
+ * Backward: din = dout * f'(in), from the forward's input (relu, leaky_relu, gelu) or its
+ * output (sigmoid). GELU is the exact erf form (torch's default). */
+void relu_backward(float *din, const float *dout, const float *in, size_t n);
+void leaky_relu_forward(float *out, const float *in, size_t n, float slope);
+void leaky_relu_backward(float *din, const float *dout, const float *in, size_t n, float slope);
+void gelu_forward(float *out, const float *in, size_t n);
+void gelu_backward(float *din, const float *dout, const float *in, size_t n);
+void sigmoid_forward(float *out, const float *in, size_t n);
+void sigmoid_backward(float *din, const float *dout, const float *out, size_t n);
+/* Softmax over each row of K of B rows: out (B,K) from logits in (B,K); stable (max
+ * subtracted). */
+void softmax_forward(float *out, const float *in, int B, int K);
+
+/* Inverted dropout: keep[i] = 0 or 1/(1-p), drawn from (seed, i) alone (counter-based, so
+ * independent of threads and order); out = in * keep. backward: din = dout * keep. */
+void dropout_forward(float *out, float *keep, const float *in, size_t n, float p, uint64_t seed);
+void dropout_backward(float *din, const float *dout, const float *keep, size_t n);
+
+/* LayerNorm over the last dimension (torch.nn.LayerNorm(C), eps 1e-5, biased variance):
+ * out (B,C) = (in - mean) * rstd * w + b; mean, rstd (B) are saved for backward.
+ * backward: dw, db (C) += ..., din (B,C) = ... */
+void layernorm_forward(float *out, float *mean, float *rstd, const float *in, const float *w,
+                       const float *b, int B, int C);
+void layernorm_backward(float *din, float *dw, float *db, const float *dout, const float *in,
+                        const float *w, const float *mean, const float *rstd, int B, int C);
+
+/* ---------------------------------------------------------------- losses ----------- */
+
+/* Regression losses over predictions p (B,C) against targets y (B,C), with an optional
+ * mask (B,C) (an element with mask 0 contributes neither loss nor gradient; NULL = all 1)
+ * and optional per-column weights wcol (C) (NULL = all 1):
+ *     loss = sum_ij m_ij wcol_j e(p_ij, y_ij) / max(1, sum_ij m_ij)
+ * so that with no mask and no weights it is the mean, as torch's reductions. e is
+ *     NN_LOSS_MSE     (p - y)^2
+ *     NN_LOSS_L1      |p - y|                   (gradient sign(p - y), 0 at 0 as torch)
+ *     NN_LOSS_THESIS  (p - y)^2 + 20 (log(p + 1e-7) - log(y + 1e-7))^2
+ *                     (the thesis's MSE(p, y) + 20 * MSE(log(p + 1e-7), log(y + 1e-7)))
+ * Returns the loss; dp (B,C) += scale * dloss/dp (dp may be NULL: loss only). */
+typedef enum nn_loss { NN_LOSS_MSE, NN_LOSS_L1, NN_LOSS_THESIS } nn_loss;
+int nn_loss_parse(const char *s); /* "mse", "l1", "thesis"; -1 when unknown */
+double regression_loss_forward_backward(nn_loss kind, float *dp, const float *p, const float *y,
+                                        const float *mask, const float *wcol, int B, int C,
+                                        double scale);
+/* Cross-entropy of softmax(logits) (B,K) against class indices cls (B) (as floats holding
+ * integers in [0, K)), optional per-row mask (B): loss = sum_i m_i CE_i / max(1, sum m_i).
+ * dlogits (B,K) += scale * dloss/dlogits; probs (B,K) is scratch (the softmax). */
+double cross_entropy_forward_backward(float *dlogits, float *probs, const float *logits,
+                                      const float *cls, const float *mask, int B, int K,
+                                      double scale);
+
+/* ---------------------------------------------------------------- optimisers ------- */
+
+typedef enum nn_optimizer_kind { NN_OPT_SGD, NN_OPT_ADAM, NN_OPT_ADAMW } nn_optimizer_kind;
+typedef enum nn_schedule_kind {
+    NN_SCHEDULE_CONSTANT,
+    NN_SCHEDULE_STEP,   /* lr * gamma^floor(t / step_size) */
+    NN_SCHEDULE_COSINE, /* linear warm-up lr (t+1)/warmup, then lr (1 + cos(pi s))/2 with
+                           s = (t - warmup) / (total - warmup) clamped to [0, 1] */
+} nn_schedule_kind;
+
+/* The update rules are torch 1.13's (torch.optim documentation):
+ *   SGD:   g += wd p; buf = g on the first step, else momentum buf + g; p -= lr buf
+ *   Adam:  g += wd p; m = b1 m + (1-b1) g; v = b2 v + (1-b2) g^2;
+ *          p -= lr/(1-b1^t) * m / (sqrt(v)/sqrt(1-b2^t) + eps)
+ *   AdamW: p *= 1 - lr wd; then Adam's update without the g += wd p
+ * Gradient clipping (clip_norm > 0) scales all gradients by min(1, clip/(|g|_2 + 1e-6))
+ * first, as torch.nn.utils.clip_grad_norm_. */
+typedef struct nn_optimizer_config {
+    nn_optimizer_kind kind;
+    float lr, weight_decay;
+    float beta1, beta2, eps; /* Adam(W) */
+    float momentum;          /* SGD */
+    float clip_norm;         /* 0: no clipping */
+    nn_schedule_kind schedule;
+    long long warmup_steps, total_steps; /* cosine */
+    long long step_size;                 /* step */
+    float gamma;                         /* step */
+} nn_optimizer_config;
+
+/* torch's defaults for kind: lr 1e-3 (SGD 1e-2), wd 0 (AdamW 1e-2), betas (0.9, 0.999),
+ * eps 1e-8, momentum 0 (SGD), constant schedule. */
+nn_optimizer_config nn_optimizer_defaults(nn_optimizer_kind kind);
+int nn_optimizer_parse(const char *s); /* "sgd", "adam", "adamw"; -1 when unknown */
+/* The learning rate of step t (0-based). */
+float nn_schedule_lr(const nn_optimizer_config *cfg, long long t);
+
+typedef struct nn_optimizer {
+    nn_optimizer_config cfg;
+    size_t n;       /* parameters */
+    float *m, *v;   /* Adam moments, or SGD's momentum buffer in m; NULL when unused */
+    long long step; /* steps taken */
+} nn_optimizer;
+
+int nn_optimizer_init(nn_optimizer *opt, const nn_optimizer_config *cfg, size_t n);
+void nn_optimizer_free(nn_optimizer *opt);
+/* Global L2 norm of g (n), summed in double in index order. */
+double nn_grad_norm(const float *g, size_t n);
+/* One update of params (n) from grads (n) (clipped in place when clip_norm > 0);
+ * step += 1. Returns the learning rate used. */
+float nn_optimizer_step(nn_optimizer *opt, float *params, float *grads);
+
+/* ---------------------------------------------------------------- MLP -------------- */
+
+enum { NN_MLP_MAX_LAYERS = 16, NN_MAX_HEADS = 64 };
+
+typedef enum nn_activation { NN_ACT_RELU, NN_ACT_GELU, NN_ACT_LEAKY_RELU } nn_activation;
+typedef enum nn_init { NN_INIT_TORCH, NN_INIT_KAIMING, NN_INIT_XAVIER } nn_init;
+
+/* "mlp:IN-H1-...-OUT[,option...]" (see nn_mlp_parse_arch for the options). The trunk is
+ * n_linear linear layers; every one but the last is followed by [LayerNorm], the
+ * activation and [dropout]. Without residual its modules are numbered as a torch
+ * nn.Sequential (trunk.0 = first Linear, trunk.1 = LayerNorm or activation, ...; only
+ * Linear and LayerNorm have parameters: trunk.<i>.weight, trunk.<i>.bias). With residual
+ * each hidden layer is one module trunk.<i> = Block(linear, norm) whose output adds its
+ * input when the widths agree: trunk.<i>.linear.weight, trunk.<i>.norm.weight, ..., and the
+ * last Linear is trunk.<n_linear-1>. */
+typedef struct nn_mlp_config {
+    int n_linear;
+    int width[NN_MLP_MAX_LAYERS + 1]; /* width[0] inputs .. width[n_linear] outputs */
+    nn_activation act;
+    float leaky_slope; /* default 0.01, torch's */
+    int layernorm;
+    float dropout; /* probability of zeroing, 0 = none */
+    int residual;
+    nn_init init;
+} nn_mlp_config;
+
+/* Parses an --arch spec. Options after commas: relu (default) | gelu | leaky[=slope],
+ * ln, dropout=P, res, init=torch|kaiming|xavier. Returns 0 or -1 with a message. */
+int nn_mlp_parse_arch(const char *spec, nn_mlp_config *cfg, char *err, size_t errlen);
+/* The canonical spec of cfg (what checkpoints store), into buf. */
+void nn_mlp_format_arch(const nn_mlp_config *cfg, char *buf, size_t len);
+
+/* A head maps network outputs to Y columns and owns their loss.
+ *   NN_HEAD_SIGMOID / NN_HEAD_LINEAR: Y columns y_first..y_first+count-1 are regression
+ *     targets of outputs out_first..out_first+count-1, through a sigmoid (or none).
+ *   NN_HEAD_SOFTMAX: Y column y_first holds a class index 0..classes-1 (or, with
+ *     unit_selector, a selector value v in [0,1] meaning class round(v (classes-1)));
+ *     outputs out_first..out_first+classes-1 are its logits; cross-entropy.
+ * The mask column of a softmax head is its Y column's. weight scales the head's loss. */
+typedef enum nn_head_kind { NN_HEAD_SIGMOID, NN_HEAD_LINEAR, NN_HEAD_SOFTMAX } nn_head_kind;
+typedef struct nn_head {
+    nn_head_kind kind;
+    int y_first, count;  /* count = 1 for softmax */
+    int classes;         /* softmax */
+    int unit_selector;   /* softmax: Y holds k/(classes-1) instead of k */
+    int out_first;       /* first network output */
+    float weight;        /* loss weight, default 1 */
+    nn_loss loss;        /* regression heads */
+} nn_head;
+
+/* "--heads" spec: comma-separated heads, each
+ *     sigmoid:A-B[@W]  linear:A-B[@W]  (Y columns A..B inclusive, or a single column A)
+ *     softmax:C/K[@W]  softmax:C/K:unit[@W]
+ * W = loss weight. Outputs are given out in spec order. Every Y column may belong to at
+ * most one head; columns of no head are ignored. NULL or "" means one linear head over
+ * all y_cols columns. default_loss is the regression heads' loss. Checks that the heads'
+ * outputs total out_width. Returns the number of heads or -1 with a message. */
+int nn_heads_parse(const char *spec, int y_cols, int out_width, nn_loss default_loss,
+                   nn_head *heads, int max_heads, char *err, size_t errlen);
+void nn_heads_format(const nn_head *heads, int n, char *buf, size_t len);
+
+/* A named parameter tensor inside the model's one parameter array. */
+typedef struct nn_param {
+    char name[64];
+    int ndim;
+    int64_t shape[2];
+    size_t offset, size; /* floats */
+} nn_param;
+
+typedef struct nn_mlp {
+    nn_mlp_config cfg;
+    nn_head heads[NN_MAX_HEADS];
+    int n_heads;
+    int y_cols; /* Y columns the heads read (max column + 1) */
+    int n_params;
+    nn_param params[4 * NN_MLP_MAX_LAYERS];
+    size_t n_floats;
+    float *weights, *grads; /* n_floats each, one block: the optimiser sees one array */
+    /* params[] index of linear layer l's weight (its bias follows) and of its LayerNorm's
+     * weight (bias follows), or -1 */
+    int linear_param[NN_MLP_MAX_LAYERS], norm_param[NN_MLP_MAX_LAYERS];
+    int threads;            /* worker threads of the linear layers (>= 1) */
+    uint64_t dropout_seed;
+    /* Per-output loss weights, one per Y column (y_cols floats, caller-owned; NULL = all
+     * 1): a regression element's term is multiplied by its column's weight (the mean's
+     * denominator stays the count of unmasked elements), a softmax head's loss by its
+     * column's. A training setting: checkpoints do not store it. */
+    const float *column_weights;
+    /* Activations for up to cap_batch rows, (re)allocated by the first bigger batch. */
+    int cap_batch;
+    float *acts;
+    size_t acts_floats;
+} nn_mlp;
+
+/* A model with seeded initial weights (cfg.init: torch's nn.Linear default, uniform
+ * +-1/sqrt(fan_in) for weights and biases; kaiming = normal std sqrt(2/fan_in), zero
+ * bias; xavier = uniform +-sqrt(6/(fan_in+fan_out)), zero bias; LayerNorm 1 and 0).
+ * The weights are a pure function of (seed, tensor, index). Returns 0 or -1. */
+int nn_mlp_create(nn_mlp *m, const nn_mlp_config *cfg, const nn_head *heads, int n_heads,
+                  uint64_t seed, char *err, size_t errlen);
+void nn_mlp_free(nn_mlp *m);
+const nn_param *nn_mlp_find_param(const nn_mlp *m, const char *name);
+
+/* Network outputs after the heads' activations (sigmoid, softmax probabilities), (B,OUT),
+ * in eval mode (no dropout). */
+int nn_mlp_forward(nn_mlp *m, const float *x, int B, float *out);
+/* Y-shaped predictions (B, y_cols): regression values; for softmax heads the argmax class
+ * (or k/(classes-1) with unit_selector); columns of no head are 0. */
+int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y);
+/* Training forward (dropout drawn from dropout_seed and step) and backward over one
+ * batch: grads are zeroed, then hold dloss/dweights. x (B,IN), y and mask (B,y_cols),
+ * mask may be NULL. *loss = the weighted sum of head losses. Returns 0 or -1 (out of
+ * memory). */
+int nn_mlp_forward_backward(nn_mlp *m, const float *x, const float *y, const float *mask,
+                            int B, long long step, double *loss);
+/* The loss over a batch in eval mode (no dropout), without touching grads: for
+ * validation sets. Returns 0 or -1 (out of memory). */
+int nn_mlp_evaluate(nn_mlp *m, const float *x, const float *y, const float *mask, int B,
+                    double *loss);
+/* forward_backward then one optimiser step. */
+int nn_mlp_train_step(nn_mlp *m, nn_optimizer *opt, const float *x, const float *y,
+                      const float *mask, int B, double *loss);
+/* Checks a data set for training: x (N,IN) finite; y finite where the mask is non-zero;
+ * softmax targets valid classes; mask values 0 or 1. Message names the row and column. */
+int nn_mlp_check_data(const nn_mlp *m, const float *x, const float *y, const float *mask,
+                      size_t N, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- batches ---------- */
+
+/* splitmix64's finaliser (a bijection): counter-based random bits for initialisation,
+ * dropout and shuffling, so every draw is a pure function of (seed, counter). */
+uint64_t nn_mix64(uint64_t z);
+/* order (n) = the rows of an epoch: 0..n-1, or with shuffle a permutation that is a pure
+ * function of (seed, epoch). */
+void nn_epoch_order(uint64_t seed, long long epoch, int shuffle, size_t n, size_t *order);
+/* dst (n, cols) = rows[0..n-1] of src. */
+void nn_gather_rows(float *dst, const float *src, size_t cols, const size_t *rows, size_t n);
+/* Which batch global step `step` trains on: epoch, first position in the epoch's order,
+ * and row count (batch, or fewer for an epoch's last batch). */
+void nn_step_batch(long long step, size_t n_rows, int batch, long long *epoch, size_t *first,
+                   int *count);
+
+/* ---------------------------------------------------------------- checkpoints ------ */
+
+/* Tensor writer: n tensors (F32, shapes up to 2-D) and string metadata pairs into a
+ * safetensors file, through a temporary file renamed into place. */
+typedef struct nn_tensor_out {
+    const char *name;
+    int ndim;
+    int64_t shape[2];
+    const float *data;
+} nn_tensor_out;
+int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
+                         const char *const *meta_kv, int n_meta, char *err, size_t errlen);
+/* The string value of "__metadata__"."key" of an opened file into value (len bytes):
+ * 0, or -1 when absent, not a string or too long. */
+int nn_safetensors_metadata(const nn_safetensors *st, const char *key, char *value, size_t len);
+
+/* Model checkpoint: the weights under their torch names; metadata "imsynth.arch",
+ * "imsynth.heads", "imsynth.y_cols"; with opt also "optimizer.<config field>" and
+ * "optimizer.step" metadata and tensors "optimizer.exp_avg.<name>" and
+ * "optimizer.exp_avg_sq.<name>" (Adam) or "optimizer.momentum_buffer.<name>" (SGD). */
+int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char *err,
+                size_t errlen);
+/* A model from a checkpoint's metadata and weights; with opt (may be NULL) the optimiser
+ * state too (opt->n == 0 when the file has none). */
+int nn_mlp_load(nn_mlp *m, nn_optimizer *opt, const char *path, char *err, size_t errlen);
+/* Weights only, into an existing model whose every parameter must be in the file with
+ * its shape (torch's strict load_state_dict); other tensors are ignored. */
+int nn_mlp_load_weights(nn_mlp *m, const char *path, char *err, size_t errlen);
+
 #ifdef __cplusplus
 }
 #endif

@@ -319,3 +319,137 @@ int nn_safetensors_read_f32(const nn_safetensors *st, const char *name, int ndim
     }
     return 0;
 }
+
+/* ---------------------------------------------------------------- writer ---------- */
+
+/* JSON-escape s into f (names are ours, but metadata values may hold anything). */
+static void write_json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
+                         const char *const *meta_kv, int n_meta, char *err, size_t errlen)
+{
+    // The header is built in memory first (its length comes before it), padded with
+    // spaces to a multiple of 8 bytes as the reference implementation does, so the data
+    // section starts aligned.
+    char *json = NULL;
+    size_t json_len = 0;
+    FILE *h = open_memstream(&json, &json_len);
+    if (!h) {
+        set_err(err, errlen, "%s: out of memory for the header", path);
+        return -1;
+    }
+    fputc('{', h);
+    if (n_meta) {
+        fputs("\"__metadata__\":{", h);
+        for (int k = 0; k < n_meta; k++) {
+            if (k)
+                fputc(',', h);
+            write_json_string(h, meta_kv[2 * k]);
+            fputc(':', h);
+            write_json_string(h, meta_kv[2 * k + 1]);
+        }
+        fputc('}', h);
+    }
+    uint64_t offset = 0;
+    for (int i = 0; i < n; i++) {
+        const nn_tensor_out *t = &tensors[i];
+        uint64_t count = 1;
+        if (n_meta || i)
+            fputc(',', h);
+        write_json_string(h, t->name);
+        fputs(":{\"dtype\":\"F32\",\"shape\":[", h);
+        for (int d = 0; d < t->ndim; d++) {
+            fprintf(h, "%s%lld", d ? "," : "", (long long)t->shape[d]);
+            count *= (uint64_t)t->shape[d];
+        }
+        fprintf(h, "],\"data_offsets\":[%llu,%llu]}", (unsigned long long)offset,
+                (unsigned long long)(offset + 4 * count));
+        offset += 4 * count;
+    }
+    fputc('}', h);
+    if (fclose(h)) {
+        free(json);
+        set_err(err, errlen, "%s: out of memory for the header", path);
+        return -1;
+    }
+    size_t padded = (json_len + 7) / 8 * 8;
+
+    char tmp[1024];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        set_err(err, errlen, "%s: %s", tmp, strerror(errno));
+        free(json);
+        return -1;
+    }
+    unsigned char len8[8];
+    for (int k = 0; k < 8; k++)
+        len8[k] = (unsigned char)((uint64_t)padded >> (8 * k));
+    int ok = fwrite(len8, 1, 8, f) == 8 && fwrite(json, 1, json_len, f) == json_len;
+    for (size_t k = json_len; ok && k < padded; k++)
+        ok = fputc(' ', f) != EOF;
+    free(json);
+    for (int i = 0; ok && i < n; i++) {
+        const nn_tensor_out *t = &tensors[i];
+        size_t count = 1;
+        for (int d = 0; d < t->ndim; d++)
+            count *= (size_t)t->shape[d];
+        // little-endian float32, byte by byte so the file is the same on any host
+        unsigned char buf[4096];
+        size_t k = 0;
+        while (ok && k < count) {
+            size_t chunk = count - k < sizeof buf / 4 ? count - k : sizeof buf / 4;
+            for (size_t q = 0; q < chunk; q++) {
+                uint32_t bits;
+                memcpy(&bits, &t->data[k + q], 4);
+                for (int b = 0; b < 4; b++)
+                    buf[4 * q + b] = (unsigned char)(bits >> (8 * b));
+            }
+            ok = fwrite(buf, 4, chunk, f) == chunk;
+            k += chunk;
+        }
+    }
+    if (fclose(f) || !ok) {
+        set_err(err, errlen, "%s: write error", tmp);
+        remove(tmp);
+        return -1;
+    }
+    if (rename(tmp, path)) {
+        set_err(err, errlen, "%s: cannot rename %s into place: %s", path, tmp, strerror(errno));
+        remove(tmp);
+        return -1;
+    }
+    return 0;
+}
+
+int nn_safetensors_metadata(const nn_safetensors *st, const char *key, char *value, size_t len)
+{
+    // The reader validated the header; here it is parsed again for one string of
+    // "__metadata__" (checkpoints read a handful of keys once, so no cache is kept).
+    uint64_t hlen = 0;
+    for (int k = 7; k >= 0; k--)
+        hlen = hlen << 8 | st->file[k];
+    cJSON *root = cJSON_ParseWithLength((const char *)st->file + 8, (size_t)hlen);
+    const cJSON *meta = root ? cJSON_GetObjectItemCaseSensitive(root, "__metadata__") : NULL;
+    const cJSON *v = meta ? cJSON_GetObjectItemCaseSensitive(meta, key) : NULL;
+    int rc = -1;
+    if (cJSON_IsString(v) && strlen(v->valuestring) < len) {
+        strcpy(value, v->valuestring);
+        rc = 0;
+    }
+    cJSON_Delete(root);
+    return rc;
+}
