@@ -1,0 +1,569 @@
+/*
+ * The forest: checks the inputs, prepares the features once (column-major floats for
+ * exact splits, uint8 bins otherwise), fits the trees on a thread pool, predicts and
+ * scores.
+ *
+ * Determinism: tree t is grown from (seed, t) alone into trees[t]; the pool only decides
+ * who grows it. Predictions sum trees in index order.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "forest/forest_impl.h"
+
+forest_params forest_default_params(void)
+{
+    return (forest_params){
+        .n_estimators = 100,
+        .max_features = FOREST_MAXF_ALL,
+        .max_features_value = 1.0,
+        .max_depth = 0,
+        .min_samples_split = 2,
+        .min_samples_leaf = 1,
+        .bootstrap = 1,
+        .seed = 0,
+        .n_threads = 1,
+        .split = FOREST_SPLIT_BINNED,
+        .n_bins = 256,
+        .mask_mode = FOREST_MASK_EXCLUDE,
+    };
+}
+
+size_t forest_n_features(const forest *f) { return f->d; }
+size_t forest_n_outputs(const forest *f) { return f->k; }
+int forest_n_trees(const forest *f) { return f->n_trees; }
+
+size_t forest_n_nodes(const forest *f)
+{
+    size_t total = 0;
+    for (int t = 0; t < f->n_trees; t++)
+        total += (size_t)f->trees[t].n_nodes;
+    return total;
+}
+
+void forest_free(forest *f)
+{
+    if (!f)
+        return;
+    for (int t = 0; t < f->n_trees; t++)
+        fo_tree_free(&f->trees[t]);
+    free(f->trees);
+    free(f);
+}
+
+/* scikit-learn's resolution of max_features against d features. */
+static long resolve_max_features(const forest_params *p, size_t d, char *err, size_t errlen)
+{
+    double v = p->max_features_value;
+    long m;
+    switch (p->max_features) {
+    case FOREST_MAXF_ALL: m = (long)d; break;
+    case FOREST_MAXF_SQRT: m = (long)floor(sqrt((double)d)); break;
+    case FOREST_MAXF_LOG2: m = (long)floor(log2((double)d)); break;
+    case FOREST_MAXF_FRACTION:
+        if (!(v > 0.0 && v <= 1.0)) {
+            snprintf(err, errlen, "max_features fraction %g is not in (0, 1]", v);
+            return -1;
+        }
+        m = (long)floor(v * (double)d);
+        break;
+    case FOREST_MAXF_COUNT:
+        if (!(v >= 1.0 && v == floor(v))) {
+            snprintf(err, errlen, "max_features count %g is not a positive integer", v);
+            return -1;
+        }
+        m = v > (double)d ? (long)d : (long)v;
+        break;
+    default: snprintf(err, errlen, "unknown max_features kind %d", (int)p->max_features); return -1;
+    }
+    return m < 1 ? 1 : m;
+}
+
+typedef struct fit_pool {
+    const fo_data *data;
+    const uint8_t *M;
+    fo_tree_options opt;
+    uint64_t seed;
+    int n_trees;
+    fo_tree *trees;
+    atomic_int next;
+    atomic_int failed;
+    pthread_mutex_t lock;
+    int done;
+    forest_progress_fn progress;
+    void *progress_ctx;
+} fit_pool;
+
+static void *fit_worker(void *arg)
+{
+    fit_pool *p = arg;
+    for (;;) {
+        int t = atomic_fetch_add(&p->next, 1);
+        if (t >= p->n_trees || atomic_load(&p->failed))
+            return NULL;
+        if (fo_build_tree(p->data, p->M, &p->opt, p->seed, (uint64_t)t, &p->trees[t])) {
+            atomic_store(&p->failed, 1);
+            return NULL;
+        }
+        pthread_mutex_lock(&p->lock);
+        int done = ++p->done;
+        if (p->progress)
+            p->progress(p->progress_ctx, done, p->n_trees);
+        pthread_mutex_unlock(&p->lock);
+    }
+}
+
+int forest_fit(const float *X, size_t n, size_t d, const float *Y, size_t k,
+               const uint8_t *M, const forest_params *p, forest **out, char *err,
+               size_t errlen)
+{
+    *out = NULL;
+    if (n < 1 || d < 1 || k < 1 || n > INT32_MAX - 2 || d > INT32_MAX) {
+        snprintf(err, errlen, "need at least one row, feature and output (got %zu x %zu -> %zu)",
+                 n, d, k);
+        return -1;
+    }
+    if (p->n_estimators < 1 || p->min_samples_split < 2 || p->min_samples_leaf < 1 ||
+        p->max_depth < 0 || p->n_threads < 1 || p->n_bins < 2 || p->n_bins > 256) {
+        snprintf(err, errlen,
+                 "bad parameters: trees %d (>= 1), min_samples_split %d (>= 2), "
+                 "min_samples_leaf %d (>= 1), max_depth %d (>= 0), threads %d (>= 1), "
+                 "bins %d (2..256)",
+                 p->n_estimators, p->min_samples_split, p->min_samples_leaf, p->max_depth,
+                 p->n_threads, p->n_bins);
+        return -1;
+    }
+    long max_features = resolve_max_features(p, d, err, errlen);
+    if (max_features < 0)
+        return -1;
+    for (size_t i = 0; i < n * d; i++)
+        if (!isfinite(X[i])) {
+            snprintf(err, errlen, "X[%zu, %zu] is not finite (%g)", i / d, i % d, (double)X[i]);
+            return -1;
+        }
+    /* Our copy of Y: masked targets are zeroed (exclude) or set to their output's mean
+     * over active rows (impute), so they may be anything, even NaN, in the caller's Y. */
+    float *Yc = malloc(n * k * sizeof *Yc);
+    if (!Yc) {
+        snprintf(err, errlen, "out of memory copying Y (%zu x %zu)", n, k);
+        return -1;
+    }
+    for (size_t i = 0; i < n * k; i++) {
+        int active = !M || M[i];
+        if (active && !isfinite(Y[i])) {
+            snprintf(err, errlen, "Y[%zu, %zu] is not finite (%g)", i / k, i % k, (double)Y[i]);
+            free(Yc);
+            return -1;
+        }
+        Yc[i] = active ? Y[i] : 0.0f;
+    }
+    const uint8_t *Mfit = M;
+    if (M && p->mask_mode == FOREST_MASK_IMPUTE) {
+        for (size_t j = 0; j < k; j++) {
+            double s = 0.0;
+            size_t c = 0;
+            for (size_t i = 0; i < n; i++)
+                if (M[i * k + j]) {
+                    s += Yc[i * k + j];
+                    c++;
+                }
+            float mean = c ? (float)(s / (double)c) : 0.0f;
+            for (size_t i = 0; i < n; i++)
+                if (!M[i * k + j])
+                    Yc[i * k + j] = mean;
+        }
+        Mfit = NULL;
+    }
+
+    fo_data data = {n, d, k, NULL, NULL, Yc};
+    fo_bins bins;
+    float *Xc = NULL;
+    int have_bins = 0, rc = -1;
+    forest *f = calloc(1, sizeof *f);
+    fo_tree *trees = calloc((size_t)p->n_estimators, sizeof *trees);
+    if (!f || !trees) {
+        snprintf(err, errlen, "out of memory");
+        goto done;
+    }
+    if (p->split == FOREST_SPLIT_BINNED) {
+        if (fo_bins_build(X, n, d, p->n_bins, p->n_threads, &bins, err, errlen))
+            goto done;
+        have_bins = 1;
+        data.bins = &bins;
+    } else {
+        Xc = malloc(n * d * sizeof *Xc);
+        if (!Xc) {
+            snprintf(err, errlen, "out of memory transposing X (%zu x %zu)", n, d);
+            goto done;
+        }
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < d; j++)
+                Xc[j * n + i] = X[i * d + j];
+        data.Xc = Xc;
+    }
+
+    fit_pool pool = {
+        .data = &data,
+        .M = Mfit,
+        .opt = {(size_t)max_features, p->max_depth, p->min_samples_split, p->min_samples_leaf,
+                p->bootstrap, Mfit != NULL},
+        .seed = p->seed,
+        .n_trees = p->n_estimators,
+        .trees = trees,
+        .progress = p->progress,
+        .progress_ctx = p->progress_ctx,
+    };
+    atomic_init(&pool.next, 0);
+    atomic_init(&pool.failed, 0);
+    pthread_mutex_init(&pool.lock, NULL);
+    int n_workers = p->n_threads < p->n_estimators ? p->n_threads : p->n_estimators;
+    pthread_t *tids = calloc((size_t)n_workers, sizeof *tids);
+    int started = 0;
+    if (tids)
+        for (; started + 1 < n_workers; started++)
+            if (pthread_create(&tids[started], NULL, fit_worker, &pool))
+                break;
+    fit_worker(&pool); /* this thread works too */
+    for (int i = 0; i < started; i++)
+        pthread_join(tids[i], NULL);
+    free(tids);
+    pthread_mutex_destroy(&pool.lock);
+    if (atomic_load(&pool.failed)) {
+        snprintf(err, errlen, "out of memory growing trees");
+        goto done;
+    }
+    f->d = d;
+    f->k = k;
+    f->n_trees = p->n_estimators;
+    f->trees = trees;
+    trees = NULL;
+    *out = f;
+    f = NULL;
+    rc = 0;
+done:
+    if (trees)
+        for (int t = 0; t < p->n_estimators; t++)
+            fo_tree_free(&trees[t]);
+    free(trees);
+    free(f);
+    free(Xc);
+    if (have_bins)
+        fo_bins_free(&bins);
+    free(Yc);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ predict ------- */
+
+/* The leaf of tree t reached by row x, with x[swap_feature] read as swap_value instead
+ * (swap_feature = SIZE_MAX: none). */
+static const float *leaf_value(const forest *f, int t, const float *x, size_t swap_feature,
+                               float swap_value)
+{
+    const fo_tree *tr = &f->trees[t];
+    int32_t i = 0;
+    while (tr->nodes[i].left >= 0) {
+        const fo_node *nd = &tr->nodes[i];
+        float v = (size_t)nd->feature == swap_feature ? swap_value : x[nd->feature];
+        i = (double)v <= nd->threshold ? nd->left : nd->right;
+    }
+    return tr->values + (size_t)i * f->k;
+}
+
+/* Rows [r0, r1) of X into Y_out, with column swap_feature replaced by swap[r]. */
+static void predict_rows(const forest *f, const float *X, size_t r0, size_t r1,
+                         size_t swap_feature, const float *swap, float *Y_out, double *acc)
+{
+    const size_t k = f->k, d = f->d;
+    for (size_t r = r0; r < r1; r++) {
+        for (size_t j = 0; j < k; j++)
+            acc[j] = 0.0;
+        const float *x = X + r * d;
+        float sv = swap ? swap[r] : 0.0f;
+        for (int t = 0; t < f->n_trees; t++) {
+            const float *v = leaf_value(f, t, x, swap_feature, sv);
+            for (size_t j = 0; j < k; j++)
+                acc[j] += v[j];
+        }
+        for (size_t j = 0; j < k; j++)
+            Y_out[r * k + j] = (float)(acc[j] / f->n_trees);
+    }
+}
+
+typedef struct predict_job {
+    const forest *f;
+    const float *X;
+    size_t r0, r1;
+    float *Y;
+    int failed;
+} predict_job;
+
+static void *predict_worker(void *arg)
+{
+    predict_job *j = arg;
+    double *acc = malloc(j->f->k * sizeof *acc);
+    if (!acc) {
+        j->failed = 1;
+        return NULL;
+    }
+    predict_rows(j->f, j->X, j->r0, j->r1, SIZE_MAX, NULL, j->Y, acc);
+    free(acc);
+    return NULL;
+}
+
+int forest_predict(const forest *f, const float *X, size_t n, float *Y_out, int n_threads)
+{
+    enum { MAX_PREDICT_THREADS = 64 };
+    if (n_threads < 1)
+        n_threads = 1;
+    if (n_threads > MAX_PREDICT_THREADS)
+        n_threads = MAX_PREDICT_THREADS;
+    if ((size_t)n_threads > n)
+        n_threads = n ? (int)n : 1;
+    predict_job jobs[MAX_PREDICT_THREADS];
+    pthread_t tids[MAX_PREDICT_THREADS];
+    int started[MAX_PREDICT_THREADS] = {0};
+    for (int t = 0; t < n_threads; t++)
+        jobs[t] = (predict_job){f, X, n * (size_t)t / (size_t)n_threads,
+                                n * (size_t)(t + 1) / (size_t)n_threads, Y_out, 0};
+    for (int t = 0; t + 1 < n_threads; t++)
+        started[t] = !pthread_create(&tids[t], NULL, predict_worker, &jobs[t]);
+    for (int t = 0; t < n_threads; t++)
+        if (t + 1 == n_threads || !started[t])
+            predict_worker(&jobs[t]);
+    for (int t = 0; t < n_threads; t++)
+        if (started[t])
+            pthread_join(tids[t], NULL);
+    int failed = 0;
+    for (int t = 0; t < n_threads; t++)
+        failed |= jobs[t].failed;
+    return failed ? -1 : 0;
+}
+
+/* ---------------------------------------------------------------- importance ------ */
+
+int forest_feature_importances(const forest *f, double *importance)
+{
+    const size_t d = f->d;
+    double *tree_imp = calloc(d, sizeof *tree_imp);
+    for (size_t j = 0; j < d; j++)
+        importance[j] = 0.0;
+    if (!tree_imp)
+        return -1;
+    for (int t = 0; t < f->n_trees; t++) {
+        const fo_tree *tr = &f->trees[t];
+        if (tr->n_nodes <= 1)
+            continue; /* scikit-learn skips trees that are a single leaf */
+        memset(tree_imp, 0, d * sizeof *tree_imp);
+        double total = 0.0;
+        for (int32_t i = 0; i < tr->n_nodes; i++) {
+            const fo_node *nd = &tr->nodes[i];
+            if (nd->left < 0)
+                continue;
+            double dec = nd->wimpurity - tr->nodes[nd->left].wimpurity -
+                         tr->nodes[nd->right].wimpurity;
+            tree_imp[nd->feature] += dec;
+        }
+        for (size_t j = 0; j < d; j++)
+            total += tree_imp[j];
+        if (total > 0.0)
+            for (size_t j = 0; j < d; j++)
+                importance[j] += tree_imp[j] / total;
+    }
+    double total = 0.0;
+    for (size_t j = 0; j < d; j++)
+        total += importance[j];
+    if (total > 0.0)
+        for (size_t j = 0; j < d; j++)
+            importance[j] /= total;
+    free(tree_imp);
+    return 0;
+}
+
+/* Mean over outputs of R^2 of P against Y on active rows (outputs without variance are
+ * skipped; none left: 0). */
+static double r2_mean(const float *P, const float *Y, const uint8_t *M, size_t n, size_t k)
+{
+    double total = 0.0;
+    size_t used = 0;
+    for (size_t j = 0; j < k; j++) {
+        double s = 0.0;
+        size_t c = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!M || M[i * k + j]) {
+                s += Y[i * k + j];
+                c++;
+            }
+        if (c == 0)
+            continue;
+        double mean = s / (double)c, sse = 0.0, sst = 0.0;
+        for (size_t i = 0; i < n; i++)
+            if (!M || M[i * k + j]) {
+                double e = (double)Y[i * k + j] - P[i * k + j], v = Y[i * k + j] - mean;
+                sse += e * e;
+                sst += v * v;
+            }
+        if (sst <= 0.0)
+            continue;
+        total += 1.0 - sse / sst;
+        used++;
+    }
+    return used ? total / (double)used : 0.0;
+}
+
+double forest_score(const forest *f, const float *X, const float *Y, const uint8_t *M,
+                    size_t n, int n_threads)
+{
+    float *P = malloc(n * f->k * sizeof *P);
+    if (!P)
+        return NAN;
+    if (forest_predict(f, X, n, P, n_threads)) {
+        free(P);
+        return NAN;
+    }
+    double r2 = r2_mean(P, Y, M, n, f->k);
+    free(P);
+    return r2;
+}
+
+typedef struct perm_pool {
+    const forest *f;
+    const float *X, *Y;
+    const uint8_t *M;
+    size_t n;
+    const size_t *features;
+    size_t n_eval;
+    int n_repeats;
+    uint64_t seed;
+    double baseline;
+    double *mean, *std;
+    atomic_size_t next;
+    atomic_int failed;
+} perm_pool;
+
+static void *perm_worker(void *arg)
+{
+    perm_pool *p = arg;
+    const size_t n = p->n, k = p->f->k, d = p->f->d;
+    float *col = malloc(n * sizeof *col);
+    float *P = malloc(n * k * sizeof *P);
+    double *acc = malloc(k * sizeof *acc);
+    double *drops = malloc((size_t)p->n_repeats * sizeof *drops);
+    if (!col || !P || !acc || !drops) {
+        atomic_store(&p->failed, 1);
+        goto done;
+    }
+    for (;;) {
+        size_t e = atomic_fetch_add(&p->next, 1);
+        if (e >= p->n_eval)
+            break;
+        size_t feature = p->features ? p->features[e] : e;
+        fo_rng rng;
+        fo_rng_seed(&rng, p->seed, (uint64_t)feature);
+        for (size_t i = 0; i < n; i++)
+            col[i] = p->X[i * d + feature];
+        double s = 0.0, ss = 0.0;
+        for (int rep = 0; rep < p->n_repeats; rep++) {
+            for (size_t i = n; i > 1; i--) { /* Fisher-Yates, continuing from the last */
+                size_t j = (size_t)fo_rng_below(&rng, i);
+                float t = col[i - 1];
+                col[i - 1] = col[j];
+                col[j] = t;
+            }
+            predict_rows(p->f, p->X, 0, n, feature, col, P, acc);
+            drops[rep] = p->baseline - r2_mean(P, p->Y, p->M, n, k);
+            s += drops[rep];
+        }
+        double m = s / p->n_repeats;
+        for (int rep = 0; rep < p->n_repeats; rep++)
+            ss += (drops[rep] - m) * (drops[rep] - m);
+        p->mean[e] = m;
+        p->std[e] = sqrt(ss / p->n_repeats);
+    }
+done:
+    free(col);
+    free(P);
+    free(acc);
+    free(drops);
+    return NULL;
+}
+
+int forest_permutation_importance(const forest *f, const float *X, const float *Y,
+                                  const uint8_t *M, size_t n, const size_t *features,
+                                  size_t n_eval, int n_repeats, uint64_t seed, int n_threads,
+                                  double *mean, double *std, char *err, size_t errlen)
+{
+    if (n < 2 || n_repeats < 1) {
+        snprintf(err, errlen, "permutation importance needs >= 2 rows and >= 1 repeat");
+        return -1;
+    }
+    if (!features)
+        n_eval = f->d;
+    for (size_t e = 0; features && e < n_eval; e++)
+        if (features[e] >= f->d) {
+            snprintf(err, errlen, "feature %zu is out of range (the forest has %zu)",
+                     features[e], f->d);
+            return -1;
+        }
+    double baseline = forest_score(f, X, Y, M, n, n_threads);
+    if (isnan(baseline)) {
+        snprintf(err, errlen, "out of memory predicting %zu rows", n);
+        return -1;
+    }
+    perm_pool pool = {f, X, Y, M, n, features, n_eval, n_repeats, seed, baseline, mean, std};
+    atomic_init(&pool.next, 0);
+    atomic_init(&pool.failed, 0);
+    enum { MAX_PERM_THREADS = 64 };
+    if (n_threads < 1)
+        n_threads = 1;
+    if (n_threads > MAX_PERM_THREADS)
+        n_threads = MAX_PERM_THREADS;
+    pthread_t tids[MAX_PERM_THREADS];
+    int started = 0;
+    for (; started + 1 < n_threads; started++)
+        if (pthread_create(&tids[started], NULL, perm_worker, &pool))
+            break;
+    perm_worker(&pool);
+    for (int i = 0; i < started; i++)
+        pthread_join(tids[i], NULL);
+    if (atomic_load(&pool.failed)) {
+        snprintf(err, errlen, "out of memory in permutation importance");
+        return -1;
+    }
+    return 0;
+}
+
+/* --------------------------------------------------------------------- top k ------ */
+
+typedef struct scored {
+    double score;
+    size_t index;
+} scored;
+
+static int cmp_scored(const void *a, const void *b)
+{
+    const scored *x = a, *y = b;
+    if (x->score != y->score)
+        return x->score > y->score ? -1 : 1;
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+int forest_top_k(const double *score, size_t d, size_t k, size_t *indices)
+{
+    if (k > d)
+        k = d;
+    scored *s = malloc(d * sizeof *s);
+    if (!s)
+        return -1;
+    for (size_t j = 0; j < d; j++)
+        s[j] = (scored){isnan(score[j]) ? -INFINITY : score[j], j};
+    qsort(s, d, sizeof *s, cmp_scored);
+    for (size_t r = 0; r < k; r++)
+        indices[r] = s[r].index;
+    free(s);
+    return 0;
+}

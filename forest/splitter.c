@@ -1,0 +1,318 @@
+/*
+ * Splitters: for one node (rows idx[0..n)) and one feature, group the rows by feature
+ * value in increasing order and hand the groups' statistics to the criterion.
+ *
+ * Exact: sort the node's values; consecutive values closer than FO_FEATURE_THRESHOLD
+ * chain into one group (scikit-learn's rule), and a split between two groups has the
+ * threshold halfway between them. Binned: a group per non-empty bin, found without
+ * sorting, and the threshold is the bin's upper edge.
+ */
+#include <assert.h>
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "forest/forest_impl.h"
+
+int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_leaf)
+{
+    memset(s, 0, sizeof *s);
+    s->data = data;
+    s->masked = masked;
+    s->min_leaf = min_leaf;
+    size_t n = data->n, k = data->k;
+    size_t max_groups = data->bins ? 256 : (n ? n : 1);
+    s->g.k = k;
+    s->g.masked = masked;
+    s->g.sum = malloc(max_groups * k * sizeof *s->g.sum);
+    s->g.w = malloc(max_groups * (masked ? k : 1) * sizeof *s->g.w);
+    s->g.count = malloc(max_groups * sizeof *s->g.count);
+    s->scratch = malloc(2 * k * sizeof *s->scratch);
+    if (!data->bins) {
+        s->xs = malloc(n * sizeof *s->xs);
+        s->rows = malloc(n * sizeof *s->rows);
+        s->lo = malloc(n * sizeof *s->lo);
+        s->hi = malloc(n * sizeof *s->hi);
+    }
+    for (int b = 0; b < 256; b++)
+        s->slot_of[b] = -1;
+    if (!s->g.sum || !s->g.w || !s->g.count || !s->scratch ||
+        (!data->bins && (!s->xs || !s->rows || !s->lo || !s->hi))) {
+        fo_splitter_free(s);
+        return -1;
+    }
+    return 0;
+}
+
+void fo_splitter_free(fo_splitter *s)
+{
+    free(s->g.sum);
+    free(s->g.w);
+    free(s->g.count);
+    free(s->scratch);
+    free(s->xs);
+    free(s->rows);
+    free(s->lo);
+    free(s->hi);
+    memset(s, 0, sizeof *s);
+}
+
+/* ------------------------------------------- sorting (value, row) pairs: introsort -- */
+
+static void swap_pair(float *x, int32_t *r, size_t a, size_t b)
+{
+    float t = x[a];
+    x[a] = x[b];
+    x[b] = t;
+    int32_t u = r[a];
+    r[a] = r[b];
+    r[b] = u;
+}
+
+static void sift_down(float *x, int32_t *r, size_t root, size_t n)
+{
+    for (;;) {
+        size_t c = 2 * root + 1;
+        if (c >= n)
+            return;
+        if (c + 1 < n && x[c + 1] > x[c])
+            c++;
+        if (!(x[c] > x[root]))
+            return;
+        swap_pair(x, r, root, c);
+        root = c;
+    }
+}
+
+static void heap_sort(float *x, int32_t *r, size_t n)
+{
+    for (size_t i = n / 2; i-- > 0;)
+        sift_down(x, r, i, n);
+    for (size_t end = n; end-- > 1;) {
+        swap_pair(x, r, 0, end);
+        sift_down(x, r, 0, end);
+    }
+}
+
+static void intro_sort(float *x, int32_t *r, size_t n, int depth)
+{
+    while (n > 16) {
+        if (depth-- == 0) {
+            heap_sort(x, r, n);
+            return;
+        }
+        /* Median of three as pivot; three-way partition so runs of ties cost nothing. */
+        float a = x[0], b = x[n / 2], c = x[n - 1];
+        float pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
+        size_t lt = 0, i = 0, gt = n;
+        while (i < gt) {
+            if (x[i] < pivot)
+                swap_pair(x, r, lt++, i++);
+            else if (x[i] > pivot)
+                swap_pair(x, r, i, --gt);
+            else
+                i++;
+        }
+        /* Recurse into the smaller side, loop on the larger. */
+        if (lt < n - gt) {
+            intro_sort(x, r, lt, depth);
+            x += gt;
+            r += gt;
+            n -= gt;
+        } else {
+            intro_sort(x + gt, r + gt, n - gt, depth);
+            n = lt;
+        }
+    }
+    for (size_t i = 1; i < n; i++) {
+        float v = x[i];
+        int32_t w = r[i];
+        size_t j = i;
+        for (; j > 0 && x[j - 1] > v; j--) {
+            x[j] = x[j - 1];
+            r[j] = r[j - 1];
+        }
+        x[j] = v;
+        r[j] = w;
+    }
+}
+
+/* -------------------------------------------------------------- grouping ---------- */
+
+/* Adds row r's statistics to group gi. */
+static inline void add_row(fo_groups *g, size_t gi, size_t r, const double *wy,
+                           const double *wm, const double *w)
+{
+    const size_t k = g->k;
+    double *sum = g->sum + gi * k;
+    const double *a = wy + r * k;
+    for (size_t j = 0; j < k; j++)
+        sum[j] += a[j];
+    if (wm) {
+        double *gw = g->w + gi * k;
+        const double *b = wm + r * k;
+        for (size_t j = 0; j < k; j++)
+            gw[j] += b[j];
+    } else
+        g->w[gi] += w[r];
+    g->count[gi]++;
+}
+
+static void clear_groups(fo_groups *g, size_t n_groups)
+{
+    g->n_groups = n_groups;
+    memset(g->sum, 0, n_groups * g->k * sizeof *g->sum);
+    memset(g->w, 0, n_groups * (g->masked ? g->k : 1) * sizeof *g->w);
+    memset(g->count, 0, n_groups * sizeof *g->count);
+}
+
+static size_t groups_exact(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                           const double *wy, const double *wm, const double *w)
+{
+    const fo_data *D = s->data;
+    const float *col = D->Xc + f * D->n;
+    for (size_t i = 0; i < n; i++) {
+        s->rows[i] = idx[i];
+        s->xs[i] = col[idx[i]];
+    }
+    if (n < 2)
+        return n;
+    int depth = 2;
+    for (size_t m = n; m > 1; m >>= 1)
+        depth += 2;
+    intro_sort(s->xs, s->rows, n, depth);
+    if (s->xs[n - 1] <= s->xs[0] + FO_FEATURE_THRESHOLD)
+        return 1; /* constant in this node */
+    /* Group boundaries first (to size the clear), then the sums. */
+    size_t ng = 1;
+    s->lo[0] = s->xs[0];
+    for (size_t i = 1; i < n; i++)
+        if (s->xs[i] > s->xs[i - 1] + FO_FEATURE_THRESHOLD) {
+            s->hi[ng - 1] = s->xs[i - 1];
+            s->lo[ng++] = s->xs[i];
+        }
+    s->hi[ng - 1] = s->xs[n - 1];
+    clear_groups(&s->g, ng);
+    size_t gi = 0;
+    add_row(&s->g, 0, (size_t)s->rows[0], wy, wm, w);
+    for (size_t i = 1; i < n; i++) {
+        gi += s->xs[i] > s->xs[i - 1] + FO_FEATURE_THRESHOLD;
+        add_row(&s->g, gi, (size_t)s->rows[i], wy, wm, w);
+    }
+    assert(gi + 1 == ng);
+    return ng;
+}
+
+static size_t groups_binned(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                            const double *wy, const double *wm, const double *w)
+{
+    const uint8_t *codes = s->data->bins->codes + f * s->data->n;
+    /* Which bins occur (slot_of is all -1 between calls). */
+    size_t ng = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint8_t b = codes[idx[i]];
+        if (s->slot_of[b] < 0) {
+            s->slot_of[b] = 0;
+            s->slot_bin[ng++] = b;
+        }
+    }
+    /* Number them in bin order: insertion sort for a few, a sweep over 256 for many. */
+    if (ng <= 24) {
+        for (size_t i = 1; i < ng; i++) {
+            int32_t v = s->slot_bin[i];
+            size_t j = i;
+            for (; j > 0 && s->slot_bin[j - 1] > v; j--)
+                s->slot_bin[j] = s->slot_bin[j - 1];
+            s->slot_bin[j] = v;
+        }
+    } else {
+        size_t m = 0;
+        for (int b = 0; b < 256; b++)
+            if (s->slot_of[b] == 0)
+                s->slot_bin[m++] = b;
+        assert(m == ng);
+    }
+    for (size_t gi = 0; gi < ng; gi++)
+        s->slot_of[s->slot_bin[gi]] = (int32_t)gi;
+    if (ng > 1) {
+        clear_groups(&s->g, ng);
+        for (size_t i = 0; i < n; i++)
+            add_row(&s->g, (size_t)s->slot_of[codes[idx[i]]], (size_t)idx[i], wy, wm, w);
+    }
+    for (size_t gi = 0; gi < ng; gi++)
+        s->slot_of[s->slot_bin[gi]] = -1;
+    s->g.n_groups = ng;
+    return ng;
+}
+
+size_t fo_splitter_groups(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                          const double *wy, const double *wm, const double *w)
+{
+    return s->data->bins ? groups_binned(s, idx, n, f, wy, wm, w)
+                         : groups_exact(s, idx, n, f, wy, wm, w);
+}
+
+int fo_splitter_try_feature(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                            const double *wy, const double *wm, const double *w,
+                            const double *total_sum, const double *total_w, fo_split *best)
+{
+    size_t ng = fo_splitter_groups(s, idx, n, f, wy, wm, w);
+    if (ng <= 1)
+        return 1;
+    double proxy;
+    long last_left = fo_criterion_best_split(&s->g, total_sum, total_w, (int32_t)n,
+                                             s->min_leaf, &proxy, s->scratch);
+    if (last_left < 0 || !(proxy > best->proxy))
+        return 0;
+    best->feature = (long)f;
+    best->proxy = proxy;
+    if (s->data->bins) {
+        int b = s->slot_bin[last_left];
+        best->bin = b;
+        best->threshold = s->data->bins->edges[f * (size_t)(s->data->bins->max_bins - 1) + b];
+    } else {
+        /* scikit-learn: halfway in double; if that rounds onto the right value (or
+         * overflows), the left value itself. */
+        double a = s->hi[last_left], b = s->lo[last_left + 1];
+        double t = a / 2.0 + b / 2.0;
+        if (t == b || isinf(t))
+            t = a;
+        best->threshold = t;
+        best->bin = -1;
+    }
+    return 0;
+}
+
+size_t fo_splitter_partition(const fo_splitter *s, int32_t *idx, size_t n,
+                             const fo_split *split)
+{
+    const fo_data *D = s->data;
+    size_t f = (size_t)split->feature, i = 0, j = n;
+    if (D->bins) {
+        const uint8_t *codes = D->bins->codes + f * D->n;
+        const int b = split->bin;
+        while (i < j) {
+            if (codes[idx[i]] <= b)
+                i++;
+            else {
+                int32_t t = idx[i];
+                idx[i] = idx[--j];
+                idx[j] = t;
+            }
+        }
+    } else {
+        const float *col = D->Xc + f * D->n;
+        const double t = split->threshold;
+        while (i < j) {
+            if ((double)col[idx[i]] <= t)
+                i++;
+            else {
+                int32_t u = idx[i];
+                idx[i] = idx[--j];
+                idx[j] = u;
+            }
+        }
+    }
+    return i;
+}
