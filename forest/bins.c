@@ -15,10 +15,46 @@
 
 #include "forest/forest_impl.h"
 
-static int cmp_float(const void *a, const void *b)
+/* An unsigned key ordering floats as their values (negative ones with every bit flipped,
+ * positive ones with the sign bit set); -0 sorts just before +0, which no caller minds. */
+static uint32_t float_key(float x)
 {
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    return u & 0x80000000u ? ~u : u | 0x80000000u;
+}
+
+/* LSD radix sort of n (key, row) pairs, 11 bits a pass; tmp_* hold n entries each. */
+static void radix_sort(uint32_t *key, uint32_t *row, uint32_t *tmp_key, uint32_t *tmp_row,
+                       size_t n)
+{
+    enum { BITS = 11, RADIX = 1 << BITS };
+    size_t count[RADIX];
+    for (int shift = 0; shift < 32; shift += BITS) {
+        memset(count, 0, sizeof count);
+        for (size_t i = 0; i < n; i++)
+            count[(key[i] >> shift) & (RADIX - 1)]++;
+        size_t at = 0;
+        for (int b = 0; b < RADIX; b++) {
+            size_t c = count[b];
+            count[b] = at;
+            at += c;
+        }
+        for (size_t i = 0; i < n; i++) {
+            size_t to = count[(key[i] >> shift) & (RADIX - 1)]++;
+            tmp_key[to] = key[i];
+            tmp_row[to] = row[i];
+        }
+        uint32_t *t = key;
+        key = tmp_key;
+        tmp_key = t;
+        t = row;
+        row = tmp_row;
+        tmp_row = t;
+    }
+    /* Three passes: the sorted data ended in the tmp arrays; bring them back. */
+    memcpy(tmp_key, key, n * sizeof *key);
+    memcpy(tmp_row, row, n * sizeof *row);
 }
 
 /* Halfway between a < b, rounded so that a <= edge < b (x <= edge sends a left, b right). */
@@ -60,20 +96,6 @@ int fo_bins_edges(const float *sorted, size_t n, int max_bins, float *edges)
     return ne;
 }
 
-/* First b with x <= edges[b] (binary search), or ne. */
-static uint8_t bin_of(float x, const float *edges, int ne)
-{
-    int lo = 0, hi = ne;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (x <= edges[mid])
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    return (uint8_t)lo;
-}
-
 typedef struct bin_job {
     const float *X;
     size_t n, d;
@@ -92,33 +114,47 @@ static void *bin_worker(void *arg)
     const int nb = j->b->max_bins;
     float *col = malloc(n * BIN_BLOCK * sizeof *col);
     float *sorted = malloc(n * sizeof *sorted);
-    if (!col || !sorted) {
+    uint32_t *key = malloc(4 * n * sizeof *key), *row = key + n, *tk = key + 2 * n,
+             *tr = key + 3 * n;
+    if (!col || !sorted || !key) {
         j->failed = 1;
         free(col);
         free(sorted);
+        free(key);
         return NULL;
     }
     for (size_t f0 = j->first; f0 < j->last; f0 += BIN_BLOCK) {
         size_t nf = j->last - f0 < BIN_BLOCK ? j->last - f0 : BIN_BLOCK;
         for (size_t i = 0; i < n; i++) {
-            const float *row = j->X + i * d + f0;
+            const float *x = j->X + i * d + f0;
             for (size_t f = 0; f < nf; f++)
-                col[f * n + i] = row[f];
+                col[f * n + i] = x[f];
         }
         for (size_t f = 0; f < nf; f++) {
             const float *c = col + f * n;
-            memcpy(sorted, c, n * sizeof *sorted);
-            qsort(sorted, n, sizeof *sorted, cmp_float);
+            for (size_t i = 0; i < n; i++) {
+                key[i] = float_key(c[i]);
+                row[i] = (uint32_t)i;
+            }
+            radix_sort(key, row, tk, tr, n);
+            for (size_t i = 0; i < n; i++)
+                sorted[i] = c[row[i]];
             float *edges = j->b->edges + (f0 + f) * (size_t)(nb - 1);
             int ne = fo_bins_edges(sorted, n, nb, edges);
             j->b->n_edges[f0 + f] = (uint16_t)ne;
+            /* Walking up the sorted values, the bin (first edge >= x) only grows. */
             uint8_t *codes = j->b->codes + (f0 + f) * n;
-            for (size_t i = 0; i < n; i++)
-                codes[i] = bin_of(c[i], edges, ne);
+            int b = 0;
+            for (size_t i = 0; i < n; i++) {
+                while (b < ne && sorted[i] > edges[b])
+                    b++;
+                codes[row[i]] = (uint8_t)b;
+            }
         }
     }
     free(col);
     free(sorted);
+    free(key);
     return NULL;
 }
 

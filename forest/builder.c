@@ -52,22 +52,23 @@ void fo_tree_free(fo_tree *t)
 int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *o,
                   uint64_t seed, uint64_t index, fo_tree *out)
 {
-    const size_t n = data->n, d = data->d, k = data->k;
+    const size_t n = data->n, d = data->d, k = data->k, kp = fo_padded(k);
     const int masked = o->masked && M;
     memset(out, 0, sizeof *out);
     fo_rng rng;
     fo_rng_seed(&rng, seed, index);
 
     double *w = calloc(n, sizeof *w);
-    double *wy = malloc(n * k * sizeof *wy);
-    double *wm = masked ? malloc(n * k * sizeof *wm) : NULL;
+    fo_acc *wy = calloc(n * kp, sizeof *wy);
+    fo_acc *wm = masked ? calloc(n * kp, sizeof *wm) : NULL;
+    fo_acc *totals = calloc(2 * kp, sizeof *totals); /* the node's sums and weights */
     int32_t *idx = malloc(n * sizeof *idx);
     int32_t *feat = malloc(d * sizeof *feat);
-    double *stats = malloc(3 * k * sizeof *stats);
+    double *stats = malloc(3 * kp * sizeof *stats);
     pending *stack = malloc((n + 2) * sizeof *stack);
     fo_splitter sp;
     int sp_ok = 0, rc = -1;
-    if (!w || !wy || (masked && !wm) || !idx || !feat || !stats || !stack)
+    if (!w || !wy || (masked && !wm) || !totals || !idx || !feat || !stats || !stack)
         goto done;
     if (fo_splitter_init(&sp, data, masked, o->min_samples_leaf))
         goto done;
@@ -87,15 +88,15 @@ int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *
             idx[n_in++] = (int32_t)i;
         for (size_t j = 0; j < k; j++) {
             double m = masked ? (double)M[i * k + j] : 1.0;
-            wy[i * k + j] = w[i] * m * (double)data->Y[i * k + j];
+            wy[i * kp + j] = (fo_acc)(w[i] * m * (double)data->Y[i * k + j]);
             if (masked)
-                wm[i * k + j] = w[i] * m;
+                wm[i * kp + j] = (fo_acc)(w[i] * m);
         }
     }
     for (size_t f = 0; f < d; f++)
         feat[f] = (int32_t)f;
 
-    double *sum = stats, *sumsq = stats + k, *wsum = stats + 2 * k;
+    double *sum = stats, *sumsq = stats + kp, *wsum = stats + 2 * kp;
     tree_growth g = {out, k, 0};
     size_t top = 0;
     stack[top++] = (pending){0, (int32_t)n_in, 0, -1, 0};
@@ -125,7 +126,7 @@ int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *
         for (size_t j = 0; j < k; j++) {
             double wj = wsum[masked ? j : 0];
             if (wj > 0.0)
-                value[j] = (float)(sum[j] / wj);
+                value[j] = (float)(sum[j] / wj + data->y_mean[j]);
             else
                 value[j] = p.parent >= 0 ? out->values[(size_t)p.parent * k + j] : 0.0f;
         }
@@ -135,15 +136,33 @@ int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *
         if (is_leaf)
             continue;
         fo_split best = {-1, 0.0, -1, -DBL_MAX};
+        fo_acc *tsum = totals, *tw = totals + kp;
+        for (size_t j = 0; j < kp; j++)
+            tsum[j] = (fo_acc)sum[j];
+        for (size_t j = 0; j < (masked ? kp : 1); j++)
+            tw[j] = (fo_acc)wsum[j];
+        /* Draw the first max_features at once (in batches, so their values are gathered
+         * together), then one at a time while all looked at were constant. */
         size_t visited = 0, constant = 0;
-        for (size_t i = 0; i < d && (visited < o->max_features || visited <= constant); i++) {
-            size_t j = i + (size_t)fo_rng_below(&rng, d - i);
-            int32_t f = feat[j];
-            feat[j] = feat[i];
-            feat[i] = f;
-            visited++;
-            constant += (size_t)fo_splitter_try_feature(&sp, rows, nn, (size_t)f, wy, wm, w,
-                                                        sum, wsum, &best);
+        for (size_t i = 0; i < d && (visited < o->max_features || visited <= constant);) {
+            size_t want = visited < o->max_features ? o->max_features - visited : 1;
+            size_t nb = want < FO_GATHER_BATCH ? want : FO_GATHER_BATCH;
+            if (nb > d - i)
+                nb = d - i;
+            for (size_t q = 0; q < nb; q++) {
+                size_t j = i + q + (size_t)fo_rng_below(&rng, d - i - q);
+                int32_t f = feat[j];
+                feat[j] = feat[i + q];
+                feat[i + q] = f;
+            }
+            fo_splitter_gather(&sp, rows, nn, feat + i, nb);
+            for (size_t q = 0; q < nb; q++) {
+                visited++;
+                constant += (size_t)fo_splitter_try_gathered(&sp, q, rows, nn,
+                                                             (size_t)feat[i + q], wy, wm, w,
+                                                             tsum, tw, &best);
+            }
+            i += nb;
         }
         if (best.feature < 0)
             continue;
@@ -166,6 +185,7 @@ done:
     free(w);
     free(wy);
     free(wm);
+    free(totals);
     free(idx);
     free(feat);
     free(stats);

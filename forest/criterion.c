@@ -12,13 +12,55 @@
 
 #include "forest/forest_impl.h"
 
-long fo_criterion_best_split(const fo_groups *g, const double *total_sum,
-                             const double *total_w, int32_t total_count, int min_leaf,
-                             double *proxy, double *scratch)
+/* The reductions below keep LANES partial sums so that they vectorise without
+ * -ffast-math (which this project does not use); the result depends only on k, never on
+ * the thread or the machine. */
+enum { LANES = FO_LANES };
+
+/* L += G, then sl = |L|^2 and sr = |T - L|^2 (k a multiple of LANES). */
+static inline void add_and_square(fo_acc *restrict L, const fo_acc *restrict G,
+                                  const fo_acc *restrict T, size_t k, double *sl, double *sr)
+{
+    fo_acc al[LANES] = {0}, ar[LANES] = {0};
+    for (size_t j = 0; j < k; j += LANES)
+        for (int l = 0; l < LANES; l++) {
+            fo_acc a = L[j + l] + G[j + l], r = T[j + l] - a;
+            L[j + l] = a;
+            al[l] += a * a;
+            ar[l] += r * r;
+        }
+    double x = 0.0, y = 0.0;
+    for (int l = 0; l < LANES; l++) {
+        x += al[l];
+        y += ar[l];
+    }
+    *sl = x;
+    *sr = y;
+}
+
+/* sum_j L_j^2 / wl_j + R_j^2 / wr_j over the sides with weight. */
+static double proxy_masked(const fo_acc *L, const fo_acc *wl, const fo_acc *T,
+                           const fo_acc *tw, size_t k)
+{
+    double p = 0.0;
+    for (size_t j = 0; j < k; j++) {
+        double wr = (double)tw[j] - wl[j], R = (double)T[j] - L[j];
+        if (wl[j] > 0.0f)
+            p += (double)L[j] * L[j] / wl[j];
+        if (wr > 0.0)
+            p += R * R / wr;
+    }
+    return p;
+}
+
+long fo_criterion_best_split(const fo_groups *g, const fo_acc *total_sum,
+                             const fo_acc *total_w, int32_t total_count, int min_leaf,
+                             double *proxy, fo_acc *scratch)
 {
     const size_t k = g->k;
-    double *L = scratch;     /* k: left sums */
-    double *wl = scratch + k; /* k (masked) or 1: left weights */
+    assert(k % LANES == 0);
+    fo_acc *L = scratch;      /* k: left sums */
+    fo_acc *wl = scratch + k; /* k (masked) or 1: left weights */
     long best = -1;
     double best_proxy = -DBL_MAX;
     for (size_t j = 0; j < k; j++)
@@ -28,36 +70,32 @@ long fo_criterion_best_split(const fo_groups *g, const double *total_sum,
     int32_t nl = 0;
     /* The last group can only be left of nothing. */
     for (size_t s = 0; s + 1 < g->n_groups; s++) {
-        const double *gs = g->sum + s * k;
-        for (size_t j = 0; j < k; j++)
-            L[j] += gs[j];
+        const fo_acc *gs = g->sum + s * k;
         nl += g->count[s];
-        if (g->masked)
-            for (size_t j = 0; j < k; j++)
-                wl[j] += g->w[s * k + j];
-        else
-            wl[0] += g->w[s];
-        if (nl < min_leaf)
-            continue;
-        if (total_count - nl < min_leaf)
-            break; /* the right side only shrinks from here */
-        double p = 0.0;
+        double p;
         if (g->masked) {
             for (size_t j = 0; j < k; j++) {
-                double wr = total_w[j] - wl[j], R = total_sum[j] - L[j];
-                if (wl[j] > 0.0)
-                    p += L[j] * L[j] / wl[j];
-                if (wr > 0.0)
-                    p += R * R / wr;
+                L[j] += gs[j];
+                wl[j] += g->w[s * k + j];
             }
+            if (nl < min_leaf)
+                continue;
+            if (total_count - nl < min_leaf)
+                break; /* the right side only shrinks from here */
+            p = proxy_masked(L, wl, total_sum, total_w, k);
         } else {
-            double sl = 0.0, sr = 0.0;
-            for (size_t j = 0; j < k; j++) {
-                double R = total_sum[j] - L[j];
-                sl += L[j] * L[j];
-                sr += R * R;
+            wl[0] += g->w[s];
+            if (nl < min_leaf || total_count - nl < min_leaf) {
+                for (size_t j = 0; j < k; j++)
+                    L[j] += gs[j];
+                if (total_count - nl < min_leaf)
+                    break;
+                continue;
             }
-            p = sl / wl[0] + sr / (total_w[0] - wl[0]);
+            /* L += group, and both sums of squares, in one pass. */
+            double sl, sr;
+            add_and_square(L, gs, total_sum, k, &sl, &sr);
+            p = sl / wl[0] + sr / ((double)total_w[0] - wl[0]);
         }
         if (p > best_proxy) {
             best_proxy = p;
@@ -68,29 +106,38 @@ long fo_criterion_best_split(const fo_groups *g, const double *total_sum,
     return best;
 }
 
-void fo_criterion_node_stats(const int32_t *idx, size_t n, size_t k, const double *wy,
-                             const double *wm, const double *w, const float *Y,
+void fo_criterion_node_stats(const int32_t *idx, size_t n, size_t k, const fo_acc *wy,
+                             const fo_acc *wm, const double *w, const float *Y,
                              double *sum, double *sumsq, double *wsum, double *impurity,
                              double *wimpurity)
 {
-    const size_t nw = wm ? k : 1;
-    for (size_t j = 0; j < k; j++)
+    const size_t kp = fo_padded(k);
+    for (size_t j = 0; j < kp; j++)
         sum[j] = sumsq[j] = 0.0;
-    for (size_t j = 0; j < nw; j++)
+    for (size_t j = 0; j < (wm ? kp : 1); j++)
         wsum[j] = 0.0;
+    /* From Y in double, not from the float wy: impurities are differences of sums. Row
+     * weights (bootstrap counts) and wm (counts times 0 or 1) are exact in float. */
     for (size_t i = 0; i < n; i++) {
         size_t r = (size_t)idx[i];
-        const double *a = wy + r * k;
         const float *y = Y + r * k;
-        for (size_t j = 0; j < k; j++) {
-            sum[j] += a[j];
-            sumsq[j] += a[j] * (double)y[j];
+        if (wm) {
+            const fo_acc *m = wm + r * kp;
+            for (size_t j = 0; j < k; j++) {
+                double a = (double)m[j] * y[j];
+                sum[j] += a;
+                sumsq[j] += a * y[j];
+                wsum[j] += m[j];
+            }
+        } else {
+            const double wr = w[r];
+            for (size_t j = 0; j < k; j++) {
+                double a = wr * y[j];
+                sum[j] += a;
+                sumsq[j] += a * y[j];
+            }
+            wsum[0] += wr;
         }
-        if (wm)
-            for (size_t j = 0; j < k; j++)
-                wsum[j] += wm[r * k + j];
-        else
-            wsum[0] += w[r];
     }
     /* scikit-learn: impurity = mean_j (sumsq_j / w - mean_j^2). */
     double imp = 0.0, wimp = 0.0;

@@ -161,25 +161,30 @@ int forest_fit(const float *X, size_t n, size_t d, const float *Y, size_t k,
         }
         Yc[i] = active ? Y[i] : 0.0f;
     }
-    const uint8_t *Mfit = M;
-    if (M && p->mask_mode == FOREST_MASK_IMPUTE) {
-        for (size_t j = 0; j < k; j++) {
-            double s = 0.0;
-            size_t c = 0;
-            for (size_t i = 0; i < n; i++)
-                if (M[i * k + j]) {
-                    s += Yc[i * k + j];
-                    c++;
-                }
-            float mean = c ? (float)(s / (double)c) : 0.0f;
-            for (size_t i = 0; i < n; i++)
-                if (!M[i * k + j])
-                    Yc[i * k + j] = mean;
-        }
-        Mfit = NULL;
+    /* Centre each output on its active rows' mean (impute: masked entries get exactly
+     * that mean, i.e. zero after centring). Variances, hence trees, do not change; float
+     * split sums stay relative to the spread. */
+    double *y_mean = calloc(k, sizeof *y_mean);
+    if (!y_mean) {
+        snprintf(err, errlen, "out of memory");
+        free(Yc);
+        return -1;
     }
+    for (size_t j = 0; j < k; j++) {
+        double s = 0.0;
+        size_t c = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!M || M[i * k + j]) {
+                s += Yc[i * k + j];
+                c++;
+            }
+        y_mean[j] = c ? s / (double)c : 0.0;
+        for (size_t i = 0; i < n; i++)
+            Yc[i * k + j] = !M || M[i * k + j] ? (float)(Yc[i * k + j] - y_mean[j]) : 0.0f;
+    }
+    const uint8_t *Mfit = M && p->mask_mode == FOREST_MASK_EXCLUDE ? M : NULL;
 
-    fo_data data = {n, d, k, NULL, NULL, Yc};
+    fo_data data = {n, d, k, NULL, NULL, Yc, y_mean};
     fo_bins bins;
     float *Xc = NULL;
     int have_bins = 0, rc = -1;
@@ -254,6 +259,7 @@ done:
     if (have_bins)
         fo_bins_free(&bins);
     free(Yc);
+    free(y_mean);
     return rc;
 }
 
@@ -514,7 +520,9 @@ int forest_permutation_importance(const forest *f, const float *X, const float *
         snprintf(err, errlen, "out of memory predicting %zu rows", n);
         return -1;
     }
-    perm_pool pool = {f, X, Y, M, n, features, n_eval, n_repeats, seed, baseline, mean, std};
+    perm_pool pool = {.f = f, .X = X, .Y = Y, .M = M, .n = n, .features = features,
+                      .n_eval = n_eval, .n_repeats = n_repeats, .seed = seed,
+                      .baseline = baseline, .mean = mean, .std = std};
     atomic_init(&pool.next, 0);
     atomic_init(&pool.failed, 0);
     enum { MAX_PERM_THREADS = 64 };

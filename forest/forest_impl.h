@@ -94,6 +94,12 @@ struct forest {
 
 /* ---------------------------------------------------------------- criterion ------- */
 
+/* Split search accumulates targets in float: twice the vector lanes and half the memory
+ * traffic of double. Targets are centred on their mean first (forest.c), so a proxy's
+ * rounding is relative to the spread, not the offset, of the targets. Node statistics
+ * (impurities, predictions) are summed in double. */
+typedef float fo_acc;
+
 /* Sufficient statistics of the candidate groups of one node along one feature, in
  * increasing feature order: group g holds count[g] distinct rows, weight w[g] (or, with a
  * mask, w[g * k + j] per output), and the weighted target sums sum[g * k + j]. A split
@@ -101,23 +107,26 @@ struct forest {
 typedef struct fo_groups {
     size_t n_groups, k;
     int masked;
-    double *sum;    /* n_groups x k */
-    double *w;      /* n_groups, or n_groups x k when masked */
+    fo_acc *sum;    /* n_groups x k */
+    fo_acc *w;      /* n_groups, or n_groups x k when masked */
     int32_t *count; /* n_groups */
 } fo_groups;
 
 /* The best split of g (largest proxy improvement, the first on equality) keeping at least
  * min_leaf rows on each side, given the node's totals (total_w: 1 or k values). Returns the
- * last left group, or -1 if no split is valid; *proxy gets its score. scratch: 2k doubles. */
-long fo_criterion_best_split(const fo_groups *g, const double *total_sum,
-                             const double *total_w, int32_t total_count, int min_leaf,
-                             double *proxy, double *scratch);
+ * last left group, or -1 if no split is valid; *proxy gets its score. scratch: 2k doubles.
+ * k is a multiple of FO_LANES here (padded outputs are zero). */
+long fo_criterion_best_split(const fo_groups *g, const fo_acc *total_sum,
+                             const fo_acc *total_w, int32_t total_count, int min_leaf,
+                             double *proxy, fo_acc *scratch);
 
-/* Statistics of rows idx[0..n): per output the weighted sum, the weighted sum of squares
- * and the weight (wy = w*m*y and wm = w*m per row and output, wm NULL: unmasked with row
- * weights w). Writes impurity and weighted impurity as fo_node defines them. */
-void fo_criterion_node_stats(const int32_t *idx, size_t n, size_t k, const double *wy,
-                             const double *wm, const double *w, const float *Y,
+/* Statistics of rows idx[0..n), in double from Y (rows of k): per output the weighted sum,
+ * the weighted sum of squares and the weight (wm = w*m per row and output in rows of
+ * kp = fo_padded(k); wm NULL: unmasked, row weights w). sum, sumsq and (masked) wsum get kp
+ * values, the padding zero. wy is unused (kept for symmetry with the splitter). Writes
+ * impurity and weighted impurity as fo_node defines them. */
+void fo_criterion_node_stats(const int32_t *idx, size_t n, size_t k, const fo_acc *wy,
+                             const fo_acc *wm, const double *w, const float *Y,
                              double *sum, double *sumsq, double *wsum, double *impurity,
                              double *wimpurity);
 
@@ -140,13 +149,22 @@ int fo_bins_edges(const float *sorted, size_t n, int max_bins, float *edges);
 
 /* ---------------------------------------------------------------- splitter -------- */
 
+/* Rows of per-output statistics are padded with zeros to a multiple of FO_LANES doubles
+ * so that their loops vectorise without remainders; zero outputs add nothing to any sum. */
+#define FO_LANES 8
+static inline size_t fo_padded(size_t k) { return (k + FO_LANES - 1) / FO_LANES * FO_LANES; }
+
 /* What a splitter reads: features column-major, as floats (exact) or bin codes. */
 typedef struct fo_data {
     size_t n, d, k;
     const float *Xc;     /* exact: d x n */
     const fo_bins *bins; /* binned */
-    const float *Y;      /* n x k (masked entries zero in exclude mode) */
+    const float *Y;      /* n x k, centred (masked entries zero in exclude mode) */
+    const double *y_mean; /* k: what centring took off, added back to predictions */
 } fo_data;
+
+/* Features whose node values are gathered at once (see fo_splitter_gather). */
+enum { FO_GATHER_BATCH = 64 };
 
 typedef struct fo_splitter {
     const fo_data *data;
@@ -157,10 +175,13 @@ typedef struct fo_splitter {
     float *xs;
     int32_t *rows;
     float *lo, *hi;
-    /* binned mode: a bin's group, or -1 */
+    /* gathered node values: FO_GATHER_BATCH x n codes (binned) or floats (exact) */
+    uint8_t *gathered_codes;
+    float *gathered_vals;
+    /* binned mode: a bin's group (valid for the bins present in the last call) */
     int32_t slot_of[256];
     int32_t slot_bin[256];
-    double *scratch;
+    fo_acc *scratch;
 } fo_splitter;
 
 typedef struct fo_split {
@@ -174,12 +195,20 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
 void fo_splitter_free(fo_splitter *s);
 /* Groups of rows idx[0..n) along feature f; returns the number of groups (1: constant). */
 size_t fo_splitter_groups(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                          const double *wy, const double *wm, const double *w);
-/* Best split of rows idx[0..n) along f (updates *best if better; returns 1 if f is
- * constant in the node). */
+                          const fo_acc *wy, const fo_acc *wm, const double *w);
+/* Copies the values of rows idx[0..n) for count <= FO_GATHER_BATCH features into the
+ * splitter, for fo_splitter_try_gathered(q = 0..count-1). */
+void fo_splitter_gather(fo_splitter *s, const int32_t *idx, size_t n, const int32_t *features,
+                        size_t count);
+/* Best split of rows idx[0..n) along the q-th gathered feature f (updates *best if
+ * better; returns 1 if f is constant in the node). */
+int fo_splitter_try_gathered(fo_splitter *s, size_t q, const int32_t *idx, size_t n,
+                             size_t f, const fo_acc *wy, const fo_acc *wm, const double *w,
+                             const fo_acc *total_sum, const fo_acc *total_w, fo_split *best);
+/* The same for one feature, gathering it first. */
 int fo_splitter_try_feature(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                            const double *wy, const double *wm, const double *w,
-                            const double *total_sum, const double *total_w, fo_split *best);
+                            const fo_acc *wy, const fo_acc *wm, const double *w,
+                            const fo_acc *total_sum, const fo_acc *total_w, fo_split *best);
 /* Reorders idx[0..n) so rows going left come first; returns how many go left. */
 size_t fo_splitter_partition(const fo_splitter *s, int32_t *idx, size_t n,
                              const fo_split *split);

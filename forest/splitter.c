@@ -21,7 +21,7 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
     s->data = data;
     s->masked = masked;
     s->min_leaf = min_leaf;
-    size_t n = data->n, k = data->k;
+    size_t n = data->n, k = fo_padded(data->k);
     size_t max_groups = data->bins ? 256 : (n ? n : 1);
     s->g.k = k;
     s->g.masked = masked;
@@ -29,15 +29,18 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
     s->g.w = malloc(max_groups * (masked ? k : 1) * sizeof *s->g.w);
     s->g.count = malloc(max_groups * sizeof *s->g.count);
     s->scratch = malloc(2 * k * sizeof *s->scratch);
+    if (data->bins)
+        s->gathered_codes = malloc(FO_GATHER_BATCH * (n ? n : 1));
+    else
+        s->gathered_vals = malloc(FO_GATHER_BATCH * (n ? n : 1) * sizeof *s->gathered_vals);
     if (!data->bins) {
         s->xs = malloc(n * sizeof *s->xs);
         s->rows = malloc(n * sizeof *s->rows);
         s->lo = malloc(n * sizeof *s->lo);
         s->hi = malloc(n * sizeof *s->hi);
     }
-    for (int b = 0; b < 256; b++)
-        s->slot_of[b] = -1;
     if (!s->g.sum || !s->g.w || !s->g.count || !s->scratch ||
+        (!s->gathered_codes && !s->gathered_vals) ||
         (!data->bins && (!s->xs || !s->rows || !s->lo || !s->hi))) {
         fo_splitter_free(s);
         return -1;
@@ -55,6 +58,8 @@ void fo_splitter_free(fo_splitter *s)
     free(s->rows);
     free(s->lo);
     free(s->hi);
+    free(s->gathered_codes);
+    free(s->gathered_vals);
     memset(s, 0, sizeof *s);
 }
 
@@ -141,21 +146,21 @@ static void intro_sort(float *x, int32_t *r, size_t n, int depth)
 /* -------------------------------------------------------------- grouping ---------- */
 
 /* Adds row r's statistics to group gi. */
-static inline void add_row(fo_groups *g, size_t gi, size_t r, const double *wy,
-                           const double *wm, const double *w)
+static inline void add_row(fo_groups *g, size_t gi, size_t r, const fo_acc *wy,
+                           const fo_acc *wm, const double *w)
 {
     const size_t k = g->k;
-    double *sum = g->sum + gi * k;
-    const double *a = wy + r * k;
+    fo_acc *sum = g->sum + gi * k;
+    const fo_acc *a = wy + r * k;
     for (size_t j = 0; j < k; j++)
         sum[j] += a[j];
     if (wm) {
-        double *gw = g->w + gi * k;
-        const double *b = wm + r * k;
+        fo_acc *gw = g->w + gi * k;
+        const fo_acc *b = wm + r * k;
         for (size_t j = 0; j < k; j++)
             gw[j] += b[j];
     } else
-        g->w[gi] += w[r];
+        g->w[gi] += (fo_acc)w[r];
     g->count[gi]++;
 }
 
@@ -167,14 +172,13 @@ static void clear_groups(fo_groups *g, size_t n_groups)
     memset(g->count, 0, n_groups * sizeof *g->count);
 }
 
-static size_t groups_exact(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                           const double *wy, const double *wm, const double *w)
+/* vals[i]: the feature's value for row idx[i]. */
+static size_t groups_exact(fo_splitter *s, const float *vals, const int32_t *idx, size_t n,
+                           const fo_acc *wy, const fo_acc *wm, const double *w)
 {
-    const fo_data *D = s->data;
-    const float *col = D->Xc + f * D->n;
     for (size_t i = 0; i < n; i++) {
         s->rows[i] = idx[i];
-        s->xs[i] = col[idx[i]];
+        s->xs[i] = vals[i];
     }
     if (n < 2)
         return n;
@@ -204,60 +208,77 @@ static size_t groups_exact(fo_splitter *s, const int32_t *idx, size_t n, size_t 
     return ng;
 }
 
-static size_t groups_binned(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                            const double *wy, const double *wm, const double *w)
+/* codes[i]: the feature's bin for row idx[i]. */
+static size_t groups_binned(fo_splitter *s, const uint8_t *codes, const int32_t *idx,
+                            size_t n, const fo_acc *wy, const fo_acc *wm, const double *w)
 {
-    const uint8_t *codes = s->data->bins->codes + f * s->data->n;
-    /* Which bins occur (slot_of is all -1 between calls). */
-    size_t ng = 0;
+    /* Which bins occur, as a 256-bit set; numbering its members in order is then a few
+     * count-trailing-zeros, with no sort and no sweep over empty bins. */
+    uint64_t present[4] = {0, 0, 0, 0};
     for (size_t i = 0; i < n; i++) {
-        uint8_t b = codes[idx[i]];
-        if (s->slot_of[b] < 0) {
-            s->slot_of[b] = 0;
+        uint8_t b = codes[i];
+        present[b >> 6] |= 1ull << (b & 63);
+    }
+    size_t ng = 0;
+    for (int word = 0; word < 4; word++)
+        for (uint64_t bits = present[word]; bits; bits &= bits - 1) {
+            int b = word * 64 + __builtin_ctzll(bits);
+            s->slot_of[b] = (int32_t)ng;
             s->slot_bin[ng++] = b;
         }
-    }
-    /* Number them in bin order: insertion sort for a few, a sweep over 256 for many. */
-    if (ng <= 24) {
-        for (size_t i = 1; i < ng; i++) {
-            int32_t v = s->slot_bin[i];
-            size_t j = i;
-            for (; j > 0 && s->slot_bin[j - 1] > v; j--)
-                s->slot_bin[j] = s->slot_bin[j - 1];
-            s->slot_bin[j] = v;
-        }
-    } else {
-        size_t m = 0;
-        for (int b = 0; b < 256; b++)
-            if (s->slot_of[b] == 0)
-                s->slot_bin[m++] = b;
-        assert(m == ng);
-    }
-    for (size_t gi = 0; gi < ng; gi++)
-        s->slot_of[s->slot_bin[gi]] = (int32_t)gi;
+    s->g.n_groups = ng;
     if (ng > 1) {
         clear_groups(&s->g, ng);
         for (size_t i = 0; i < n; i++)
-            add_row(&s->g, (size_t)s->slot_of[codes[idx[i]]], (size_t)idx[i], wy, wm, w);
+            add_row(&s->g, (size_t)s->slot_of[codes[i]], (size_t)idx[i], wy, wm, w);
     }
-    for (size_t gi = 0; gi < ng; gi++)
-        s->slot_of[s->slot_bin[gi]] = -1;
-    s->g.n_groups = ng;
     return ng;
 }
 
-size_t fo_splitter_groups(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                          const double *wy, const double *wm, const double *w)
+void fo_splitter_gather(fo_splitter *s, const int32_t *idx, size_t n, const int32_t *features,
+                        size_t count)
 {
-    return s->data->bins ? groups_binned(s, idx, n, f, wy, wm, w)
-                         : groups_exact(s, idx, n, f, wy, wm, w);
+    const fo_data *D = s->data;
+    assert(count <= FO_GATHER_BATCH);
+    /* One tight loop of independent loads per feature: the cache misses of the columns
+     * (a node's rows are scattered over them) overlap instead of stalling the sums. */
+    for (size_t q = 0; q < count; q++) {
+        size_t f = (size_t)features[q];
+        if (D->bins) {
+            const uint8_t *col = D->bins->codes + f * D->n;
+            uint8_t *out = s->gathered_codes + q * D->n;
+            for (size_t i = 0; i < n; i++)
+                out[i] = col[idx[i]];
+        } else {
+            const float *col = D->Xc + f * D->n;
+            float *out = s->gathered_vals + q * D->n;
+            for (size_t i = 0; i < n; i++)
+                out[i] = col[idx[i]];
+        }
+    }
 }
 
-int fo_splitter_try_feature(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
-                            const double *wy, const double *wm, const double *w,
-                            const double *total_sum, const double *total_w, fo_split *best)
+static size_t groups_gathered(fo_splitter *s, size_t q, const int32_t *idx, size_t n,
+                              const fo_acc *wy, const fo_acc *wm, const double *w)
 {
-    size_t ng = fo_splitter_groups(s, idx, n, f, wy, wm, w);
+    size_t stride = s->data->n;
+    return s->data->bins ? groups_binned(s, s->gathered_codes + q * stride, idx, n, wy, wm, w)
+                         : groups_exact(s, s->gathered_vals + q * stride, idx, n, wy, wm, w);
+}
+
+size_t fo_splitter_groups(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                          const fo_acc *wy, const fo_acc *wm, const double *w)
+{
+    int32_t feature = (int32_t)f;
+    fo_splitter_gather(s, idx, n, &feature, 1);
+    return groups_gathered(s, 0, idx, n, wy, wm, w);
+}
+
+int fo_splitter_try_gathered(fo_splitter *s, size_t q, const int32_t *idx, size_t n,
+                             size_t f, const fo_acc *wy, const fo_acc *wm, const double *w,
+                             const fo_acc *total_sum, const fo_acc *total_w, fo_split *best)
+{
+    size_t ng = groups_gathered(s, q, idx, n, wy, wm, w);
     if (ng <= 1)
         return 1;
     double proxy;
@@ -282,6 +303,15 @@ int fo_splitter_try_feature(fo_splitter *s, const int32_t *idx, size_t n, size_t
         best->bin = -1;
     }
     return 0;
+}
+
+int fo_splitter_try_feature(fo_splitter *s, const int32_t *idx, size_t n, size_t f,
+                            const fo_acc *wy, const fo_acc *wm, const double *w,
+                            const fo_acc *total_sum, const fo_acc *total_w, fo_split *best)
+{
+    int32_t feature = (int32_t)f;
+    fo_splitter_gather(s, idx, n, &feature, 1);
+    return fo_splitter_try_gathered(s, 0, idx, n, f, wy, wm, w, total_sum, total_w, best);
 }
 
 size_t fo_splitter_partition(const fo_splitter *s, int32_t *idx, size_t n,
