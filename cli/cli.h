@@ -21,6 +21,7 @@ int cmd_render(int argc, char **argv);
 int cmd_extract(int argc, char **argv);
 int cmd_export(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_forest(int argc, char **argv);
 
 /* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
  * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in

@@ -20,6 +20,7 @@ static const subcommand subcommands[] = {
     {"compare", cmd_compare, "RMSE, bias and worst block of an image against a reference"},
 #ifdef IMSYNTH_HAVE_NN
     {"describe", cmd_describe, "VGG19 Gram descriptors of images, as .npy"},
+    {"forest", cmd_forest, "fit a multi-output random forest, rank features, predict (.npy)"},
 #endif
 };
 
