@@ -24,11 +24,12 @@ static uint32_t float_key(float x)
     return u & 0x80000000u ? ~u : u | 0x80000000u;
 }
 
-/* LSD radix sort of n (key, row) pairs, 11 bits a pass; tmp_* hold n entries each. */
+/* LSD radix sort of n (key, row) pairs, a byte a pass (four passes: the result ends where
+ * it started); tmp_* hold n entries each. */
 static void radix_sort(uint32_t *key, uint32_t *row, uint32_t *tmp_key, uint32_t *tmp_row,
                        size_t n)
 {
-    enum { BITS = 11, RADIX = 1 << BITS };
+    enum { BITS = 8, RADIX = 1 << BITS };
     size_t count[RADIX];
     for (int shift = 0; shift < 32; shift += BITS) {
         memset(count, 0, sizeof count);
@@ -52,9 +53,6 @@ static void radix_sort(uint32_t *key, uint32_t *row, uint32_t *tmp_key, uint32_t
         row = tmp_row;
         tmp_row = t;
     }
-    /* Three passes: the sorted data ended in the tmp arrays; bring them back. */
-    memcpy(tmp_key, key, n * sizeof *key);
-    memcpy(tmp_row, row, n * sizeof *row);
 }
 
 /* Halfway between a < b, rounded so that a <= edge < b (x <= edge sends a left, b right). */

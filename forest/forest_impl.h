@@ -151,7 +151,7 @@ int fo_bins_edges(const float *sorted, size_t n, int max_bins, float *edges);
 
 /* Rows of per-output statistics are padded with zeros to a multiple of FO_LANES doubles
  * so that their loops vectorise without remainders; zero outputs add nothing to any sum. */
-#define FO_LANES 8
+#define FO_LANES 16
 static inline size_t fo_padded(size_t k) { return (k + FO_LANES - 1) / FO_LANES * FO_LANES; }
 
 /* What a splitter reads: features column-major, as floats (exact) or bin codes. */
