@@ -29,13 +29,15 @@ static inline void add_and_square(fo_acc *restrict L, const fo_acc *restrict G,
             al[l] += a * a;
             ar[l] += r * r;
         }
-    double x = 0.0, y = 0.0;
-    for (int l = 0; l < LANES; l++) {
-        x += al[l];
-        y += ar[l];
-    }
-    *sl = x;
-    *sr = y;
+    /* Pairwise, halving: shuffles of whole vectors rather than LANES scalar additions (which
+     * cost more than the loop above). */
+    for (int h = LANES / 2; h >= 1; h /= 2)
+        for (int l = 0; l < h; l++) {
+            al[l] += al[l + h];
+            ar[l] += ar[l + h];
+        }
+    *sl = al[0];
+    *sr = ar[0];
 }
 
 /* sum_j L_j^2 / wl_j + R_j^2 / wr_j over the sides with weight. */
