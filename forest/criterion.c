@@ -29,15 +29,23 @@ static inline void add_and_square(fo_acc *restrict L, const fo_acc *restrict G,
             al[l] += a * a;
             ar[l] += r * r;
         }
-    /* Pairwise, halving: shuffles of whole vectors rather than LANES scalar additions (which
-     * cost more than the loop above). */
-    for (int h = LANES / 2; h >= 1; h /= 2)
-        for (int l = 0; l < h; l++) {
-            al[l] += al[l + h];
-            ar[l] += ar[l + h];
-        }
-    *sl = al[0];
-    *sr = ar[0];
+    /* Pairwise, halving, with constant bounds: a few vector shuffles instead of LANES
+     * dependent scalar additions (which cost more than the loop above). */
+    _Static_assert(LANES == 16, "the reduction below halves 16 lanes");
+    for (int l = 0; l < 8; l++) {
+        al[l] += al[l + 8];
+        ar[l] += ar[l + 8];
+    }
+    for (int l = 0; l < 4; l++) {
+        al[l] += al[l + 4];
+        ar[l] += ar[l + 4];
+    }
+    for (int l = 0; l < 2; l++) {
+        al[l] += al[l + 2];
+        ar[l] += ar[l + 2];
+    }
+    *sl = (double)al[0] + al[1];
+    *sr = (double)ar[0] + ar[1];
 }
 
 /* sum_j L_j^2 / wl_j + R_j^2 / wr_j over the sides with weight. */
