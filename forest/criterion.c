@@ -80,13 +80,13 @@ long fo_criterion_best_split(const fo_groups *g, const fo_acc *total_sum,
     int32_t nl = 0;
     /* The last group can only be left of nothing. */
     for (size_t s = 0; s + 1 < g->n_groups; s++) {
-        const fo_acc *gs = g->sum + s * k;
+        const fo_acc *gs = g->sum[s];
         nl += g->count[s];
         double p;
         if (g->masked) {
             for (size_t j = 0; j < k; j++) {
                 L[j] += gs[j];
-                wl[j] += g->w[s * k + j];
+                wl[j] += g->wk[s][j];
             }
             if (nl < min_leaf)
                 continue;

@@ -102,14 +102,17 @@ typedef float fo_acc;
 
 /* Sufficient statistics of the candidate groups of one node along one feature, in
  * increasing feature order: group g holds count[g] distinct rows, weight w[g] (or, with a
- * mask, w[g * k + j] per output), and the weighted target sums sum[g * k + j]. A split
- * puts groups [0, s] left and (s, n_groups) right. */
+ * mask, wk[g][j] per output), and the weighted target sums sum[g][j]. A group of one row
+ * points into the tree's per-row arrays; larger ones into buf_sum / buf_w. A split puts
+ * groups [0, s] left and (s, n_groups) right. */
 typedef struct fo_groups {
     size_t n_groups, k;
     int masked;
-    fo_acc *sum;    /* n_groups x k */
-    fo_acc *w;      /* n_groups, or n_groups x k when masked */
-    int32_t *count; /* n_groups */
+    const fo_acc **sum; /* n_groups rows of k */
+    const fo_acc **wk;  /* masked: n_groups rows of k */
+    fo_acc *w;          /* unmasked: n_groups */
+    int32_t *count;     /* n_groups */
+    fo_acc *buf_sum, *buf_w; /* storage of the groups of several rows */
 } fo_groups;
 
 /* The best split of g (largest proxy improvement, the first on equality) keeping at least
@@ -178,6 +181,7 @@ typedef struct fo_splitter {
     /* gathered node values: FO_GATHER_BATCH x n codes (binned) or floats (exact) */
     uint8_t *gathered_codes;
     float *gathered_vals;
+    int32_t *first_row; /* binned mode: a row of each group */
     /* binned mode: a bin's group (valid for the bins present in the last call) */
     int32_t slot_of[256];
     int32_t slot_bin[256];

@@ -25,9 +25,13 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
     size_t max_groups = data->bins ? 256 : (n ? n : 1);
     s->g.k = k;
     s->g.masked = masked;
-    s->g.sum = malloc(max_groups * k * sizeof *s->g.sum);
-    s->g.w = malloc(max_groups * (masked ? k : 1) * sizeof *s->g.w);
+    s->g.sum = malloc(max_groups * sizeof *s->g.sum);
+    s->g.wk = malloc(max_groups * sizeof *s->g.wk);
+    s->g.w = malloc(max_groups * sizeof *s->g.w);
     s->g.count = malloc(max_groups * sizeof *s->g.count);
+    s->g.buf_sum = malloc(max_groups * k * sizeof *s->g.buf_sum);
+    s->g.buf_w = masked ? malloc(max_groups * k * sizeof *s->g.buf_w) : NULL;
+    s->first_row = malloc(max_groups * sizeof *s->first_row);
     s->scratch = malloc(2 * k * sizeof *s->scratch);
     if (data->bins)
         s->gathered_codes = malloc(FO_GATHER_BATCH * (n ? n : 1));
@@ -39,7 +43,8 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
         s->lo = malloc(n * sizeof *s->lo);
         s->hi = malloc(n * sizeof *s->hi);
     }
-    if (!s->g.sum || !s->g.w || !s->g.count || !s->scratch ||
+    if (!s->g.sum || !s->g.wk || !s->g.w || !s->g.count || !s->g.buf_sum ||
+        (masked && !s->g.buf_w) || !s->first_row || !s->scratch ||
         (!s->gathered_codes && !s->gathered_vals) ||
         (!data->bins && (!s->xs || !s->rows || !s->lo || !s->hi))) {
         fo_splitter_free(s);
@@ -51,8 +56,12 @@ int fo_splitter_init(fo_splitter *s, const fo_data *data, int masked, int min_le
 void fo_splitter_free(fo_splitter *s)
 {
     free(s->g.sum);
+    free(s->g.wk);
     free(s->g.w);
     free(s->g.count);
+    free(s->g.buf_sum);
+    free(s->g.buf_w);
+    free(s->first_row);
     free(s->scratch);
     free(s->xs);
     free(s->rows);
@@ -145,31 +154,48 @@ static void intro_sort(float *x, int32_t *r, size_t n, int depth)
 
 /* -------------------------------------------------------------- grouping ---------- */
 
-/* Adds row r's statistics to group gi. */
+/* A group of one row points at that row's statistics (no copy: most groups of deep nodes
+ * are single rows); a group of several rows gets a buffer row and their sums. */
+static inline void point_at_row(fo_groups *g, size_t gi, size_t r, const fo_acc *wy,
+                                const fo_acc *wm, const double *w)
+{
+    g->sum[gi] = wy + r * g->k;
+    if (wm)
+        g->wk[gi] = wm + r * g->k;
+    else
+        g->w[gi] = (fo_acc)w[r];
+}
+
+/* Makes group gi the (empty) multi-row group number mi. */
+static inline void open_buffer(fo_groups *g, size_t gi, size_t mi)
+{
+    fo_acc *sum = g->buf_sum + mi * g->k;
+    memset(sum, 0, g->k * sizeof *sum);
+    g->sum[gi] = sum;
+    if (g->masked) {
+        fo_acc *wk = g->buf_w + mi * g->k;
+        memset(wk, 0, g->k * sizeof *wk);
+        g->wk[gi] = wk;
+    } else
+        g->w[gi] = 0.0f;
+}
+
+/* Adds row r to group gi, which has a buffer (open_buffer). */
 static inline void add_row(fo_groups *g, size_t gi, size_t r, const fo_acc *wy,
                            const fo_acc *wm, const double *w)
 {
     const size_t k = g->k;
-    fo_acc *sum = g->sum + gi * k;
-    const fo_acc *a = wy + r * k;
+    fo_acc *restrict sum = (fo_acc *)g->sum[gi];
+    const fo_acc *restrict a = wy + r * k;
     for (size_t j = 0; j < k; j++)
         sum[j] += a[j];
     if (wm) {
-        fo_acc *gw = g->w + gi * k;
-        const fo_acc *b = wm + r * k;
+        fo_acc *restrict gw = (fo_acc *)g->wk[gi];
+        const fo_acc *restrict b = wm + r * k;
         for (size_t j = 0; j < k; j++)
             gw[j] += b[j];
     } else
         g->w[gi] += (fo_acc)w[r];
-    g->count[gi]++;
-}
-
-static void clear_groups(fo_groups *g, size_t n_groups)
-{
-    g->n_groups = n_groups;
-    memset(g->sum, 0, n_groups * g->k * sizeof *g->sum);
-    memset(g->w, 0, n_groups * (g->masked ? g->k : 1) * sizeof *g->w);
-    memset(g->count, 0, n_groups * sizeof *g->count);
 }
 
 /* vals[i]: the feature's value for row idx[i]. */
@@ -188,23 +214,28 @@ static size_t groups_exact(fo_splitter *s, const float *vals, const int32_t *idx
     intro_sort(s->xs, s->rows, n, depth);
     if (s->xs[n - 1] <= s->xs[0] + FO_FEATURE_THRESHOLD)
         return 1; /* constant in this node */
-    /* Group boundaries first (to size the clear), then the sums. */
-    size_t ng = 1;
+    /* Groups are runs of the sorted rows: [start, i) closes when the value jumps. */
+    fo_groups *g = &s->g;
+    size_t ng = 0, mi = 0, start = 0;
     s->lo[0] = s->xs[0];
-    for (size_t i = 1; i < n; i++)
-        if (s->xs[i] > s->xs[i - 1] + FO_FEATURE_THRESHOLD) {
-            s->hi[ng - 1] = s->xs[i - 1];
-            s->lo[ng++] = s->xs[i];
+    for (size_t i = 1; i <= n; i++) {
+        if (i < n && !(s->xs[i] > s->xs[i - 1] + FO_FEATURE_THRESHOLD))
+            continue;
+        s->hi[ng] = s->xs[i - 1];
+        g->count[ng] = (int32_t)(i - start);
+        if (i - start == 1)
+            point_at_row(g, ng, (size_t)s->rows[start], wy, wm, w);
+        else {
+            open_buffer(g, ng, mi++);
+            for (size_t q = start; q < i; q++)
+                add_row(g, ng, (size_t)s->rows[q], wy, wm, w);
         }
-    s->hi[ng - 1] = s->xs[n - 1];
-    clear_groups(&s->g, ng);
-    size_t gi = 0;
-    add_row(&s->g, 0, (size_t)s->rows[0], wy, wm, w);
-    for (size_t i = 1; i < n; i++) {
-        gi += s->xs[i] > s->xs[i - 1] + FO_FEATURE_THRESHOLD;
-        add_row(&s->g, gi, (size_t)s->rows[i], wy, wm, w);
+        ng++;
+        if (i < n)
+            s->lo[ng] = s->xs[i];
+        start = i;
     }
-    assert(gi + 1 == ng);
+    g->n_groups = ng;
     return ng;
 }
 
@@ -226,12 +257,29 @@ static size_t groups_binned(fo_splitter *s, const uint8_t *codes, const int32_t 
             s->slot_of[b] = (int32_t)ng;
             s->slot_bin[ng++] = b;
         }
-    s->g.n_groups = ng;
-    if (ng > 1) {
-        clear_groups(&s->g, ng);
-        for (size_t i = 0; i < n; i++)
-            add_row(&s->g, (size_t)s->slot_of[codes[i]], (size_t)idx[i], wy, wm, w);
+    fo_groups *g = &s->g;
+    g->n_groups = ng;
+    if (ng <= 1)
+        return ng;
+    /* Count each group's rows (remembering one), then point or accumulate. */
+    memset(g->count, 0, ng * sizeof *g->count);
+    for (size_t i = 0; i < n; i++) {
+        int32_t gi = s->slot_of[codes[i]];
+        g->count[gi]++;
+        s->first_row[gi] = idx[i];
     }
+    size_t mi = 0;
+    for (size_t gi = 0; gi < ng; gi++)
+        if (g->count[gi] == 1)
+            point_at_row(g, gi, (size_t)s->first_row[gi], wy, wm, w);
+        else
+            open_buffer(g, gi, mi++);
+    if (mi > 0)
+        for (size_t i = 0; i < n; i++) {
+            int32_t gi = s->slot_of[codes[i]];
+            if (g->count[gi] > 1)
+                add_row(g, (size_t)gi, (size_t)idx[i], wy, wm, w);
+        }
     return ng;
 }
 

@@ -47,7 +47,10 @@ static void test_criterion_matches_brute_force(void **state)
         w[i] = 1;
         count[i] = 1;
     }
-    fo_groups g = {N, KP, 0, sum, w, count};
+    const fo_acc *rows[N];
+    for (int i = 0; i < N; i++)
+        rows[i] = sum + i * KP;
+    fo_groups g = {.n_groups = N, .k = KP, .masked = 0, .sum = rows, .w = w, .count = count};
     for (int min_leaf = 1; min_leaf <= 4; min_leaf++) {
         double proxy;
         long s = fo_criterion_best_split(&g, tsum, &tw, N, min_leaf, &proxy, scratch);
@@ -91,7 +94,12 @@ static void test_masked_criterion(void **state)
         count[i] = 1;
     }
     tw[0] = tw[1] = N;
-    fo_groups g = {N, KP, 1, sum, wm, count};
+    const fo_acc *rows[N], *wrows[N];
+    for (int i = 0; i < N; i++) {
+        rows[i] = sum + i * KP;
+        wrows[i] = wm + i * KP;
+    }
+    fo_groups g = {.n_groups = N, .k = KP, .masked = 1, .sum = rows, .wk = wrows, .count = count};
     double proxy;
     assert_int_equal(fo_criterion_best_split(&g, tsum, tw, N, 1, &proxy, scratch), 0);
     /* mask output 1 on row 0: it no longer pulls the cut */
