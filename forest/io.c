@@ -20,6 +20,11 @@
 
 #include "forest/forest_impl.h"
 
+/* Fields are written as they lie in memory, which is the format's little-endian order. */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "forest/io.c writes native byte order; add byte swapping for big-endian hosts"
+#endif
+
 #define FO_MAGIC "IMSYFRST"
 enum { FO_VERSION = 1, FO_HEADER_BYTES = 40, FO_NODE_BYTES = 48 };
 
