@@ -48,19 +48,31 @@ static inline void add_and_square(fo_acc *restrict L, const fo_acc *restrict G,
     *sr = (double)ar[0] + ar[1];
 }
 
-/* sum_j L_j^2 / wl_j + R_j^2 / wr_j over the sides with weight. */
-static double proxy_masked(const fo_acc *L, const fo_acc *wl, const fo_acc *T,
-                           const fo_acc *tw, size_t k)
+/* Masked: L += G, wl += GW, then sum_j L_j^2 / wl_j + R_j^2 / wr_j over the sides that
+ * have weight (R = T - L, wr = TW - wl), in lanes like add_and_square. */
+static inline double add_and_proxy_masked(fo_acc *restrict L, fo_acc *restrict wl,
+                                          const fo_acc *restrict G, const fo_acc *restrict GW,
+                                          const fo_acc *restrict T, const fo_acc *restrict TW,
+                                          size_t k)
 {
-    double p = 0.0;
-    for (size_t j = 0; j < k; j++) {
-        double wr = (double)tw[j] - wl[j], R = (double)T[j] - L[j];
-        if (wl[j] > 0.0f)
-            p += (double)L[j] * L[j] / wl[j];
-        if (wr > 0.0)
-            p += R * R / wr;
-    }
-    return p;
+    fo_acc acc[LANES] = {0};
+    for (size_t j = 0; j < k; j += LANES)
+        for (int l = 0; l < LANES; l++) {
+            fo_acc a = L[j + l] + G[j + l], wa = wl[j + l] + GW[j + l];
+            fo_acc r = T[j + l] - a, wr = TW[j + l] - wa;
+            L[j + l] = a;
+            wl[j + l] = wa;
+            /* the divisor is 1 where the side is empty (then its sum is 0 too) */
+            acc[l] += a * a / (wa > 0.0f ? wa : 1.0f) + r * r / (wr > 0.0f ? wr : 1.0f);
+        }
+    _Static_assert(LANES == 16, "the reduction below halves 16 lanes");
+    for (int l = 0; l < 8; l++)
+        acc[l] += acc[l + 8];
+    for (int l = 0; l < 4; l++)
+        acc[l] += acc[l + 4];
+    for (int l = 0; l < 2; l++)
+        acc[l] += acc[l + 2];
+    return (double)acc[0] + acc[1];
 }
 
 long fo_criterion_best_split(const fo_groups *g, const fo_acc *total_sum,
@@ -84,15 +96,16 @@ long fo_criterion_best_split(const fo_groups *g, const fo_acc *total_sum,
         nl += g->count[s];
         double p;
         if (g->masked) {
-            for (size_t j = 0; j < k; j++) {
-                L[j] += gs[j];
-                wl[j] += g->wk[s][j];
-            }
-            if (nl < min_leaf)
+            if (nl < min_leaf || total_count - nl < min_leaf) {
+                for (size_t j = 0; j < k; j++) {
+                    L[j] += gs[j];
+                    wl[j] += g->wk[s][j];
+                }
+                if (total_count - nl < min_leaf)
+                    break; /* the right side only shrinks from here */
                 continue;
-            if (total_count - nl < min_leaf)
-                break; /* the right side only shrinks from here */
-            p = proxy_masked(L, wl, total_sum, total_w, k);
+            }
+            p = add_and_proxy_masked(L, wl, gs, g->wk[s], total_sum, total_w, k);
         } else {
             wl[0] += g->w[s];
             if (nl < min_leaf || total_count - nl < min_leaf) {
