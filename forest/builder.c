@@ -128,7 +128,8 @@ int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *
             if (wj > 0.0)
                 value[j] = (float)(sum[j] / wj + data->y_mean[j]);
             else
-                value[j] = p.parent >= 0 ? out->values[(size_t)p.parent * k + j] : 0.0f;
+                value[j] = p.parent >= 0 ? out->values[(size_t)p.parent * k + j]
+                                         : (float)data->y_mean[j]; /* no active row at all */
         }
         int is_leaf = (o->max_depth > 0 && p.depth >= o->max_depth) ||
                       nn < (size_t)o->min_samples_split ||

@@ -26,6 +26,10 @@
  * by their output's mean over active rows before fitting. With no mask both are the plain
  * criterion. BENCHMARKS.md measures the two.
  *
+ * Memory beyond the caller's arrays: binned mode keeps one byte per value of X (plus
+ * 255 float edges per feature), exact mode a column-major float copy of X; each fitting
+ * thread needs O(n * k) more.
+ *
  * Results do not depend on the thread count: tree t draws from a generator seeded by
  * (seed, t) alone and is written to its own slot.
  */

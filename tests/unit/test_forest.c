@@ -365,6 +365,28 @@ static void test_masked_targets_are_ignored(void **state)
     forest_free(b);
 }
 
+/* An output active on only 3 of 300 rows: trees whose bootstrap misses all three (or
+ * leaves without any) predict the output's mean over its active rows, never 0. */
+static void test_rarely_active_output(void **state)
+{
+    enum { N = 300, D = 4 };
+    static float X[N * D], Y[N * 2], P[N * 2];
+    static uint8_t M[N * 2];
+    synthetic(N, D, 5, X, Y);
+    for (int i = 0; i < N; i++) {
+        M[i * 2] = 1;
+        M[i * 2 + 1] = i == 10 || i == 150 || i == 290;
+        Y[i * 2 + 1] = M[i * 2 + 1] ? 5.0f : -100.0f;
+    }
+    forest_params p = forest_default_params();
+    p.n_estimators = 40; /* P(a tree misses all three rows) = (1 - 3/300)^300 ~ 5% */
+    forest *f = fit_or_fail(X, N, D, Y, 2, M, &p);
+    assert_int_equal(forest_predict(f, X, N, P, 1), 0);
+    for (int i = 0; i < N; i++)
+        assert_true(fabsf(P[i * 2 + 1] - 5.0f) < 1e-5f);
+    forest_free(f);
+}
+
 /* Permutation importance and impurity importance both find the informative features
  * (0, 1, 2) above every noise feature. */
 static void test_importances_find_the_signal(void **state)
@@ -417,6 +439,7 @@ int main(void)
         cmocka_unit_test(test_save_load_and_bad_files),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_masked_targets_are_ignored),
+        cmocka_unit_test(test_rarely_active_output),
         cmocka_unit_test(test_importances_find_the_signal),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
