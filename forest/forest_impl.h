@@ -227,6 +227,11 @@ typedef struct fo_tree_options {
     int masked;
 } fo_tree_options;
 
+/* Rows [r0, r1) of X (n x d) into Y_out (n x k), with column swap_feature read from
+ * swap[r] instead (SIZE_MAX: none); acc: k doubles of scratch. */
+void fo_predict_rows(const forest *f, const float *X, size_t r0, size_t r1,
+                     size_t swap_feature, const float *swap, float *Y_out, double *acc);
+
 /* Grow tree `index` of a forest seeded with `seed`. M: n x k mask or NULL. */
 int fo_build_tree(const fo_data *data, const uint8_t *M, const fo_tree_options *o,
                   uint64_t seed, uint64_t index, fo_tree *out);
