@@ -170,14 +170,8 @@ int forest_fit(const float *X, size_t n, size_t d, const float *Y, size_t k,
         return -1;
     }
     for (size_t j = 0; j < k; j++) {
-        double s = 0.0;
-        size_t c = 0;
-        for (size_t i = 0; i < n; i++)
-            if (!M || M[i * k + j]) {
-                s += Yc[i * k + j];
-                c++;
-            }
-        y_mean[j] = c ? s / (double)c : 0.0;
+        size_t c;
+        y_mean[j] = fo_active_mean(Yc, M, n, k, j, &c);
         for (size_t i = 0; i < n; i++)
             Yc[i * k + j] = !M || M[i * k + j] ? (float)(Yc[i * k + j] - y_mean[j]) : 0.0f;
     }

@@ -65,6 +65,22 @@ static inline uint64_t fo_rng_below(fo_rng *r, uint64_t n)
     return x % n;
 }
 
+/* The mean of output j of Y (n x k) over the rows M marks active (M NULL: all of them);
+ * *count gets how many there are (the mean is 0 if none). */
+static inline double fo_active_mean(const float *Y, const uint8_t *M, size_t n, size_t k,
+                                    size_t j, size_t *count)
+{
+    double s = 0.0;
+    size_t c = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!M || M[i * k + j]) {
+            s += Y[i * k + j];
+            c++;
+        }
+    *count = c;
+    return c ? s / (double)c : 0.0;
+}
+
 /* ------------------------------------------------------------------- trees -------- */
 
 /* One node. A leaf has left == right == -1 and feature == -1. Children always have larger

@@ -58,16 +58,10 @@ static double r2_mean(const float *P, const float *Y, const uint8_t *M, size_t n
     double total = 0.0;
     size_t used = 0;
     for (size_t j = 0; j < k; j++) {
-        double s = 0.0;
-        size_t c = 0;
-        for (size_t i = 0; i < n; i++)
-            if (!M || M[i * k + j]) {
-                s += Y[i * k + j];
-                c++;
-            }
+        size_t c;
+        double mean = fo_active_mean(Y, M, n, k, j, &c), sse = 0.0, sst = 0.0;
         if (c == 0)
             continue;
-        double mean = s / (double)c, sse = 0.0, sst = 0.0;
         for (size_t i = 0; i < n; i++)
             if (!M || M[i * k + j]) {
                 double e = (double)Y[i * k + j] - P[i * k + j], v = Y[i * k + j] - mean;
