@@ -26,6 +26,7 @@ int cmd_datagen(int argc, char **argv);
 int cmd_dataset(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_infer(int argc, char **argv);
+int cmd_forest(int argc, char **argv);
 
 /* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
  * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in

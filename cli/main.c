@@ -25,6 +25,7 @@ static const subcommand subcommands[] = {
     {"dataset", cmd_dataset, "inspect, merge, export or view a dataset (info|merge|export|sheet)"},
     {"train", cmd_train, "train an MLP with heads on X.npy -> Y.npy (safetensors checkpoint)"},
     {"infer", cmd_infer, "predictions of a trained model for X.npy, as .npy"},
+    {"forest", cmd_forest, "fit a multi-output random forest, rank features, predict (.npy)"},
 };
 
 void cli_error(const char *sub, const char *fmt, ...)
