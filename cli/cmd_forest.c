@@ -8,11 +8,14 @@
 #include <unistd.h>
 
 #include "cli/cli.h"
+#include "pipeline/pipeline.h"
 #include "forest/forest.h"
 #include "nn/nn.h"
 
 static const char *const help =
     "usage: imsynth forest fit --x X.npy --y Y.npy [--mask M.npy] -o FOREST.bin [options]\n"
+    "       imsynth forest fit --dataset DS.sqlite -o FOREST.bin [options]\n"
+    "         (X = the stored descriptors, Y = the parameters, mask = the active mask)\n"
     "       imsynth forest importance FOREST.bin --top-k K -o MASK.npy [options]\n"
     "       imsynth forest predict FOREST.bin --x X.npy -o YHAT.npy [--y Y.npy [--mask M.npy]]\n"
     "\n"
@@ -160,6 +163,7 @@ static int forest_fit_cmd(int argc, char **argv)
 {
     const char *sub = "forest fit";
     const char *x_path = NULL, *y_path = NULL, *m_path = NULL, *out_path = NULL;
+    const char *ds_path = NULL;
     forest_params p = forest_default_params();
     p.max_features = FOREST_MAXF_SQRT;
     long threads = sysconf(_SC_NPROCESSORS_ONLN), v;
@@ -177,6 +181,8 @@ static int forest_fit_cmd(int argc, char **argv)
             y_path = argv[++i];
         else if (!strcmp(a, "--mask"))
             m_path = argv[++i];
+        else if (!strcmp(a, "--dataset"))
+            ds_path = argv[++i];
         else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             out_path = argv[++i];
         else if (!strcmp(a, "--trees")) {
@@ -241,23 +247,37 @@ static int forest_fit_cmd(int argc, char **argv)
             return EXIT_USAGE;
         }
     }
-    if (!x_path || !y_path || !out_path) {
-        cli_error(sub, "need --x X.npy, --y Y.npy and -o FOREST.bin (see --help)");
+    if (ds_path ? (x_path || y_path || m_path || !out_path) : (!x_path || !y_path || !out_path)) {
+        cli_error(sub, "need (--dataset DS.sqlite | --x X.npy --y Y.npy [--mask M.npy]) and -o "
+                       "FOREST.bin (see --help)");
         return EXIT_USAGE;
     }
     p.n_threads = threads < 1 ? 1 : (int)threads;
     int rc = EXIT_FAILURE_WORK;
     size_t n = 0, d = 0, ny = 0, k = 0;
-    float *X = read_npy(sub, "X", x_path, &n, &d), *Y = NULL;
+    float *X = NULL, *Y = NULL;
     uint8_t *M = NULL;
     forest *f = NULL;
-    if (!X)
-        goto done;
-    ny = n;
-    if (!(Y = read_npy(sub, "Y (one row per row of X)", y_path, &ny, &k)))
-        goto done;
-    if (m_path && !(M = read_mask(sub, m_path, n, k)))
-        goto done;
+    char err[1024];
+    if (ds_path) {
+        /* X = descriptors, Y = parameters, M = the active mask (inactive targets excluded). */
+        dataset *ds = dataset_open(ds_path, err, sizeof err);
+        int bad = !ds || dataset_read_arrays(ds, &X, &Y, &M, &n, &d, &k, err, sizeof err);
+        dataset_close(ds);
+        if (bad) {
+            cli_error(sub, "%s", err);
+            goto done;
+        }
+        x_path = y_path = ds_path;
+    } else {
+        if (!(X = read_npy(sub, "X", x_path, &n, &d)))
+            goto done;
+        ny = n;
+        if (!(Y = read_npy(sub, "Y (one row per row of X)", y_path, &ny, &k)))
+            goto done;
+        if (m_path && !(M = read_mask(sub, m_path, n, k)))
+            goto done;
+    }
     progress prog = {now_seconds(), 0, isatty(2)};
     if (!quiet) {
         p.progress = show_progress;
@@ -265,7 +285,6 @@ static int forest_fit_cmd(int argc, char **argv)
         fprintf(stderr, "fitting %d trees on %zu rows x %zu features -> %zu outputs, %d threads\n",
                 p.n_estimators, n, d, k, p.n_threads);
     }
-    char err[1024];
     if (forest_fit(X, n, d, Y, k, M, &p, &f, err, sizeof err)) {
         cli_error(sub, "%s (fitting %s, %s)", err, x_path, y_path);
         goto done;

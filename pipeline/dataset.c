@@ -297,6 +297,61 @@ int dataset_digest(dataset *d, char out[65], char *err, size_t errlen)
     return 0;
 }
 
+int dataset_read_arrays(dataset *d, float **X, float **Y, uint8_t **M, size_t *rows,
+                        size_t *x_cols, size_t *y_cols, char *err, size_t errlen)
+{
+    *X = *Y = NULL;
+    *M = NULL;
+    dataset_info info;
+    if (dataset_get_info(d, &info, err, errlen))
+        return -1;
+    dataset_info_free(&info);
+    size_t n = (size_t)info.rows, nd = d->descriptor_size, np = (size_t)d->n_params;
+    if (!nd)
+        return pipeline_error(err, errlen, "%s: no descriptors stored (made with --descriptor "
+                                           "none; add them with `imsynth dataset describe`)",
+                              d->path);
+    if (n == 0)
+        return pipeline_error(err, errlen, "%s: no samples", d->path);
+    float *x = malloc(n * nd * sizeof *x), *y = malloc(n * np * sizeof *y);
+    uint8_t *m = malloc(n * np);
+    dataset_iter *it = x && y && m ? dataset_iter_new(d, 1, 0, err, errlen) : NULL;
+    if (!it) {
+        if (!(x && y && m))
+            pipeline_error(err, errlen, "%s: out of memory for %zu rows x %zu features", d->path,
+                           n, nd);
+        free(x);
+        free(y);
+        free(m);
+        return -1;
+    }
+    size_t i = 0;
+    dataset_row row;
+    int got;
+    while ((got = dataset_iter_next(it, &row, err, errlen)) == 1 && i < n) {
+        memcpy(x + i * nd, row.descriptor, nd * sizeof *x);
+        memcpy(y + i * np, row.params, np * sizeof *y);
+        memcpy(m + i * np, row.active, np);
+        i++;
+    }
+    dataset_iter_free(it);
+    if (got < 0 || i != n) {
+        if (got >= 0)
+            pipeline_error(err, errlen, "%s: %zu rows read, %zu counted", d->path, i, n);
+        free(x);
+        free(y);
+        free(m);
+        return -1;
+    }
+    *X = x;
+    *Y = y;
+    *M = m;
+    *rows = n;
+    *x_cols = nd;
+    *y_cols = np;
+    return 0;
+}
+
 /* ---------------------------------------------------------------- merge ------------ */
 
 int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path, char *err,

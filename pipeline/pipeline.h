@@ -197,6 +197,13 @@ void dataset_iter_free(dataset_iter *it);
  * samples, byte for byte, however the files were made (shards, merges, resumed runs). */
 int dataset_digest(dataset *d, char out[65], char *err, size_t errlen);
 
+/* Every row's descriptor, parameters and active mask as row-major arrays (malloc'd):
+ * X rows x descriptor_size floats, Y rows x n_params, M rows x n_params bytes (1 =
+ * active), in (id, view) order; the input of `imsynth forest fit --dataset` and of the
+ * predictor's training. An error when no descriptor is stored. */
+int dataset_read_arrays(dataset *d, float **X, float **Y, uint8_t **M, size_t *rows,
+                        size_t *x_cols, size_t *y_cols, char *err, size_t errlen);
+
 /* Merges datasets made with the same config into out_path (written to a temporary file
  * and renamed). A config mismatch or an id present in two inputs is an error naming both
  * files. */

@@ -7,13 +7,13 @@
  *
  *   build/tests/bench/bench_datagen_preset [--seeds K]
  *
- * Descriptor: datagen's (VGG19, random weights seed 1, avg3 pooling, fp32). Distance
- * between descriptors x and y measured against reference r: the mean over the 5 Gram
- * layers of ||G_l(x) - G_l(y)|| / ||G_l(r)|| (Frobenius over the stored upper triangle),
- * so each layer counts the same whatever its scale. Printed per frame: the reference's own
- * noise (half a against half b), Cycles-252, each preset (mean over K seeds, and its
- * render time), and the distance to the nearest other frame's reference (how far apart two
- * different materials are).
+ * Both of datagen's descriptors: MobileNetV2 (default taps) and VGG19 (random weights,
+ * seed 1, avg3, fp32). Distance between descriptors x and y measured against reference r:
+ * the mean over the Gram layers (taps) of ||G_l(x) - G_l(y)|| / ||G_l(r)|| (Frobenius over
+ * the stored upper triangle), so each layer counts the same whatever its scale. Printed
+ * per frame and descriptor: the reference's own noise (half a against half b), Cycles-252,
+ * each render configuration (mean over K seeds), the distance to the nearest other frame's
+ * reference (how far apart two different materials are), and each configuration's time.
  */
 #include <math.h>
 #include <stdio.h>
@@ -25,44 +25,60 @@
 
 #include <cblas.h> /* after shadergraph.h: OpenBLAS defines a macro I */
 
-enum { FRAMES = 6, MAX_SEEDS = 8 };
+enum { FRAMES = 6, MAX_SEEDS = 8, CONFIGS = 6, DESCS = 2 };
 
-typedef struct ctx {
-    vgg19 net;
-    vgg_workspace *ws;
-    size_t size, off[VGG_GRAM_LAYERS + 1];
+/* The render settings compared: the three presets and three in between. */
+typedef struct config {
+    const char *name;
+    int spp, max_spp;
+    float noise_target;
+} config;
+static const config configs[CONFIGS] = {
+    {"draft (1 spp)", 1, 0, 0.03f},         {"datagen (4 spp)", 4, 0, 0.03f},
+    {"16 spp", 16, 0, 0.03f},               {"adaptive 64 / 0.1", 4, 64, 0.1f},
+    {"adaptive 256 / 0.06", 4, 256, 0.06f}, {"converged (adaptive 256 / 0.03)", 4, 256, 0.03f},
+};
+
+/* One descriptor: its network and where its layers start. */
+typedef struct desc {
+    const char *name;
+    int mobilenet;
+    vgg19 vgg;
+    vgg_workspace *vws;
+    mobilenetv2 mnv2;
+    mnv2_options mopt;
+    mnv2_workspace *mws;
+    size_t size, n_layers, off[2 * MNV2_MAX_TAPS + 1];
     float *in;
-} ctx;
+} desc;
 
-static void describe(ctx *c, const image *img, float *out)
+static void describe(desc *d, const image *img, float *out)
 {
-    if (vgg_preprocess(c->in, img->pixels, img->width, img->height, img->channels)) {
+    int bad = d->mobilenet ? mnv2_preprocess(d->in, img->pixels, img->width, img->height, img->channels)
+                           : vgg_preprocess(d->in, img->pixels, img->width, img->height, img->channels);
+    if (bad) {
         fprintf(stderr, "image too small\n");
         exit(1);
     }
-    vgg_describe(c->ws, c->in, 1, out);
+    if (d->mobilenet)
+        mnv2_describe(d->mws, d->in, 1, out);
+    else
+        vgg_describe(d->vws, d->in, 1, out);
 }
 
-static double layer_norm(const ctx *c, const float *r, int l)
-{
-    double s = 0;
-    for (size_t i = c->off[l]; i < c->off[l + 1]; i++)
-        s += (double)r[i] * r[i];
-    return sqrt(s);
-}
-
-static double distance(const ctx *c, const float *x, const float *y, const float *r)
+static double distance(const desc *d, const float *x, const float *y, const float *r)
 {
     double total = 0;
-    for (int l = 0; l < VGG_GRAM_LAYERS; l++) {
-        double s = 0;
-        for (size_t i = c->off[l]; i < c->off[l + 1]; i++) {
-            double d = (double)x[i] - y[i];
-            s += d * d;
+    for (size_t l = 0; l < d->n_layers; l++) {
+        double s = 0, n = 0;
+        for (size_t i = d->off[l]; i < d->off[l + 1]; i++) {
+            double e = (double)x[i] - y[i];
+            s += e * e;
+            n += (double)r[i] * r[i];
         }
-        total += sqrt(s) / layer_norm(c, r, l);
+        total += sqrt(s / n);
     }
-    return total / VGG_GRAM_LAYERS;
+    return total / (double)d->n_layers;
 }
 
 static void read_or_die(const char *path, image *img)
@@ -83,23 +99,41 @@ int main(int argc, char **argv)
     if (seeds < 1 || seeds > MAX_SEEDS)
         seeds = 3;
     openblas_set_num_threads(1);
-    ctx c;
-    vgg19_init_random(&c.net, vgg19_standard_width, 1);
-    vgg_options vo = {.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32, .threads = 2};
-    c.ws = vgg_workspace_create(&c.net, &vo, 1);
-    c.size = vgg19_descriptor_size(&c.net);
-    vgg19_descriptor_offsets(&c.net, c.off);
-    c.in = malloc(3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE * sizeof(float));
     char err[1024];
+    desc D[DESCS];
+    memset(D, 0, sizeof D);
+    D[0].name = "MobileNetV2";
+    D[0].mobilenet = 1;
+    if (mnv2_load(&D[0].mnv2, IMSYNTH_SOURCE_DIR "/assets/mobilenetv2/mobilenetv2_block10.safetensors",
+                  err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        return 1;
+    }
+    D[0].mopt.ntaps = mnv2_taps_parse(mnv2_default_taps, D[0].mopt.taps, err, sizeof err);
+    D[0].mopt.scales = 1;
+    D[0].mopt.threads = 1;
+    D[0].size = mnv2_descriptor_offsets(&D[0].mnv2, &D[0].mopt, D[0].off);
+    D[0].n_layers = (size_t)D[0].mopt.ntaps;
+    D[0].mws = mnv2_workspace_create(&D[0].mnv2, &D[0].mopt, MNV2_INPUT_SIZE, 1);
+    D[1].name = "VGG19";
+    vgg19_init_random(&D[1].vgg, vgg19_standard_width, 1);
+    vgg_options vo = {.pool = VGG_POOL_AVG3, .precision = VGG_PRECISION_FP32, .threads = 2};
+    D[1].vws = vgg_workspace_create(&D[1].vgg, &vo, 1);
+    D[1].size = vgg19_descriptor_size(&D[1].vgg);
+    vgg19_descriptor_offsets(&D[1].vgg, D[1].off);
+    D[1].n_layers = VGG_GRAM_LAYERS;
+    for (int k = 0; k < DESCS; k++)
+        D[k].in = malloc(3 * VGG_INPUT_SIZE * VGG_INPUT_SIZE * sizeof(float));
+
     render_scene *scene = render_scene_load(IMSYNTH_SOURCE_DIR "/assets/scene.json", err, sizeof err);
     if (!scene) {
         fprintf(stderr, "%s\n", err);
         return 1;
     }
-    static const char *const names[3] = {"draft", "datagen", "converged"};
-    float *ref[FRAMES];
-    float *tmp_a = malloc(c.size * sizeof(float)), *tmp_b = malloc(c.size * sizeof(float));
-    double own[FRAMES], cyc[FRAMES], pre[FRAMES][3], pre_sd[FRAMES][3], secs[FRAMES][3];
+    float *ref[DESCS][FRAMES];
+    double own[DESCS][FRAMES], cyc[DESCS][FRAMES], dist[DESCS][FRAMES][CONFIGS];
+    double secs[FRAMES][CONFIGS];
+    float *ta = malloc(D[1].size * sizeof(float)), *tb = malloc(D[1].size * sizeof(float));
     for (int f = 0; f < FRAMES; f++) {
         char dir[512], pa[600], pb[600], pc[600], gp[600];
         snprintf(dir, sizeof dir, "%s/tests/reference/render/supershader_s%d", IMSYNTH_SOURCE_DIR, f);
@@ -114,13 +148,15 @@ int main(int argc, char **argv)
         image_alloc(&mean, a.width, a.height, a.channels);
         for (size_t i = 0; i < (size_t)a.width * a.height * a.channels; i++)
             mean.pixels[i] = 0.5f * (a.pixels[i] + b.pixels[i]);
-        ref[f] = malloc(c.size * sizeof(float));
-        describe(&c, &mean, ref[f]);
-        describe(&c, &a, tmp_a);
-        describe(&c, &b, tmp_b);
-        own[f] = distance(&c, tmp_a, tmp_b, ref[f]);
-        describe(&c, &cy, tmp_a);
-        cyc[f] = distance(&c, tmp_a, ref[f], ref[f]);
+        for (int k = 0; k < DESCS; k++) {
+            ref[k][f] = malloc(D[k].size * sizeof(float));
+            describe(&D[k], &mean, ref[k][f]);
+            describe(&D[k], &a, ta);
+            describe(&D[k], &b, tb);
+            own[k][f] = distance(&D[k], ta, tb, ref[k][f]);
+            describe(&D[k], &cy, ta);
+            cyc[k][f] = distance(&D[k], ta, ref[k][f], ref[k][f]);
+        }
         image_free(&a);
         image_free(&b);
         image_free(&cy);
@@ -132,55 +168,75 @@ int main(int argc, char **argv)
             fprintf(stderr, "%s\n", err);
             return 1;
         }
-        for (int p = 0; p < 3; p++) {
-            const datagen_preset *ps = datagen_preset_find(names[p]);
-            double sum = 0, sum2 = 0;
-            secs[f][p] = 0;
-            for (int k = 0; k < seeds; k++) {
+        for (int c = 0; c < CONFIGS; c++) {
+            double sum[DESCS] = {0};
+            secs[f][c] = 0;
+            for (int s = 0; s < seeds; s++) {
                 render_options o;
                 render_options_default(&o);
-                o.spp = ps->spp;
-                o.max_spp = ps->max_spp;
-                o.light_samples = ps->light_samples;
-                o.noise_target = ps->noise_target;
-                o.seed = 100 + (uint64_t)k;
+                o.spp = configs[c].spp;
+                o.max_spp = configs[c].max_spp;
+                o.noise_target = configs[c].noise_target;
+                o.seed = 100 + (uint64_t)s;
                 image img;
                 render_stats st;
                 if (render_image(scene, m, &o, &img, &st, err, sizeof err)) {
                     fprintf(stderr, "%s\n", err);
                     return 1;
                 }
-                secs[f][p] += st.seconds / seeds;
-                describe(&c, &img, tmp_a);
-                double d = distance(&c, tmp_a, ref[f], ref[f]);
-                sum += d;
-                sum2 += d * d;
+                secs[f][c] += st.seconds / seeds;
+                for (int k = 0; k < DESCS; k++) {
+                    describe(&D[k], &img, ta);
+                    sum[k] += distance(&D[k], ta, ref[k][f], ref[k][f]);
+                }
                 image_free(&img);
             }
-            pre[f][p] = sum / seeds;
-            pre_sd[f][p] = seeds > 1 ? sqrt(fmax(sum2 / seeds - pre[f][p] * pre[f][p], 0)) : 0;
+            for (int k = 0; k < DESCS; k++)
+                dist[k][f][c] = sum[k] / seeds;
         }
         render_material_free(m);
         fprintf(stderr, "frame %d done\n", f);
     }
-    printf("| frame | reference's own noise (a vs b) | Cycles-252 | draft (1 spp) | datagen (4 spp) "
-           "| converged (adaptive) | nearest other frame | draft s | datagen s | converged s |\n"
-           "|---|---|---|---|---|---|---|---|---|---|\n");
-    int draft_ok = 0, datagen_ok = 0;
-    for (int f = 0; f < FRAMES; f++) {
-        double nearest = INFINITY;
-        for (int j = 0; j < FRAMES; j++)
-            if (j != f)
-                nearest = fmin(nearest, distance(&c, ref[j], ref[f], ref[f]));
-        draft_ok += pre[f][0] <= cyc[f];
-        datagen_ok += pre[f][1] <= cyc[f];
-        printf("| s%d | %.5f | %.5f | %.5f (sd %.5f) | %.5f (sd %.5f) | %.5f (sd %.5f) | %.3f | %.3f "
-               "| %.3f | %.3f |\n",
-               f, own[f], cyc[f], pre[f][0], pre_sd[f][0], pre[f][1], pre_sd[f][1], pre[f][2],
-               pre_sd[f][2], nearest, secs[f][0], secs[f][1], secs[f][2]);
+    for (int k = 0; k < DESCS; k++) {
+        printf("\n%s descriptor: distance to the converged reference (mean over %d seeds)\n\n",
+               D[k].name, seeds);
+        printf("| frame | reference's own noise | Cycles-252 |");
+        for (int c = 0; c < CONFIGS; c++)
+            printf(" %s |", configs[c].name);
+        printf(" nearest other frame |\n|---|---|---|");
+        for (int c = 0; c < CONFIGS; c++)
+            printf("---|");
+        printf("---|\n");
+        int ok[CONFIGS] = {0};
+        for (int f = 0; f < FRAMES; f++) {
+            double nearest = INFINITY;
+            for (int j = 0; j < FRAMES; j++)
+                if (j != f)
+                    nearest = fmin(nearest, distance(&D[k], ref[k][j], ref[k][f], ref[k][f]));
+            printf("| s%d | %.2e | %.2e |", f, own[k][f], cyc[k][f]);
+            for (int c = 0; c < CONFIGS; c++) {
+                printf(" %.2e |", dist[k][f][c]);
+                ok[c] += dist[k][f][c] <= cyc[k][f];
+            }
+            printf(" %.3f |\n", nearest);
+        }
+        printf("| at least as close as Cycles-252 | | |");
+        for (int c = 0; c < CONFIGS; c++)
+            printf(" %d of %d |", ok[c], FRAMES);
+        printf(" |\n");
     }
-    printf("\nat least as close as Cycles-252: draft on %d of %d frames, datagen on %d of %d "
-           "(%d seeds each)\n",
-           draft_ok, FRAMES, datagen_ok, FRAMES, seeds);
+    printf("\nRender seconds per frame (wall, 2 threads)\n\n| frame |");
+    for (int c = 0; c < CONFIGS; c++)
+        printf(" %s |", configs[c].name);
+    printf("\n|---|");
+    for (int c = 0; c < CONFIGS; c++)
+        printf("---|");
+    printf("\n");
+    for (int f = 0; f < FRAMES; f++) {
+        printf("| s%d |", f);
+        for (int c = 0; c < CONFIGS; c++)
+            printf(" %.2f |", secs[f][c]);
+        printf("\n");
+    }
     return 0;
 }

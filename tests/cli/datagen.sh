@@ -129,6 +129,14 @@ check "datagen with the VGG19 descriptor" 0 $?
 check "describe of a dataset without images" 1 $?
 expect_stderr "says there is nothing to describe" "no stored image"
 
+# The forest reads a dataset directly: descriptors in, parameters out, inactive ones masked.
+"$imsynth" forest fit --dataset "$tmp/a.sqlite" -o "$tmp/f.bin" --trees 4 --quiet > "$tmp/out"
+check "forest fit --dataset" 0 $?
+expect_stdout "38808 features, 50 outputs" "38808 features -> 50 outputs"
+"$imsynth" forest fit --dataset "$tmp/noimg.sqlite" -o "$tmp/f2.bin" --quiet 2> "$tmp/err"
+check "forest fit on a dataset without descriptors" 1 $?
+expect_stderr "says so" "no descriptors stored"
+
 # Bad files and places.
 echo "not a database" > "$tmp/text.sqlite"
 "$imsynth" dataset info "$tmp/text.sqlite" 2> "$tmp/err"; check "not a database" 1 $?
