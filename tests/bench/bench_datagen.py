@@ -10,7 +10,7 @@ whose sub-shaders are tests/reference/render/supershader_s0..), this measures:
     Blender's render call (start-up and scene building excluded, in Blender's favour);
   - PyTorch 1.13 VGG19 descriptor (avg3, random weights), 2 threads, seconds per image;
   - imsynth datagen on the same ids, each preset, 2 threads: samples/s, the time split and
-    peak RSS; then a longer run of --count ids for the steady rate.
+    peak RSS; then longer runs of --count ids for the steady rate, with each descriptor.
 Prints a markdown table; the load average is printed before and after (the machine may be
 shared). Needs scripts/setup-oracles.
 """
@@ -63,11 +63,11 @@ print("PyTorch descriptor: %s s/image" % torch_s, flush=True)
 if not m:
     print(r.stdout[-2000:], r.stderr[-2000:])
 
-def datagen(first, n, preset, tag):
+def datagen(first, n, preset, tag, descriptor="mobilenetv2"):
     out = os.path.join(work, "%s.sqlite" % tag)
     t0 = time.time()
     r = subprocess.run([imsynth, "datagen", "--out", out, "--first-id", str(first), "--count",
-                        str(n), "--preset", preset, "--threads", "2"],
+                        str(n), "--preset", preset, "--threads", "2", "--descriptor", descriptor],
                        capture_output=True, text=True, env=dict(os.environ))
     wall = time.time() - t0
     if r.returncode:
@@ -80,10 +80,11 @@ def datagen(first, n, preset, tag):
 rows = []
 for preset in ("draft", "datagen", "converged"):
     per, split, rss = datagen(0, frames, preset, "same-" + preset)
-    rows.append((preset, "frames 0-%d" % (frames - 1), per, split, rss))
+    rows.append((preset + ", mobilenetv2", "frames 0-%d" % (frames - 1), per, split, rss))
 for preset in ("draft", "datagen"):
-    per, split, rss = datagen(1000000, count, preset, "long-" + preset)
-    rows.append((preset, "%d ids from 1000000" % count, per, split, rss))
+    for desc in ("mobilenetv2", "vgg19"):
+        per, split, rss = datagen(1000000, count, preset, "long-%s-%s" % (preset, desc), desc)
+        rows.append((preset + ", " + desc, "%d ids from 1000000" % count, per, split, rss))
 
 b_inside = sum(b[0] for b in blender) / frames
 b_wall = sum(b[1] for b in blender) / frames
@@ -93,7 +94,7 @@ print("Blender 4.3 Cycles-252 + PyTorch descriptor (the thesis's pipeline), fram
       "%.1f s render inside Blender (%.1f s with start-up) + %.3f s descriptor = %.1f s a sample"
       % (frames - 1, b_inside, b_wall, torch_s, thesis))
 print()
-print("| imsynth preset | samples | s/sample (wall, 2 threads) | samples/s | vs Blender+PyTorch | time split | peak RSS MB |")
+print("| imsynth preset, descriptor | samples | s/sample (wall, 2 threads) | samples/s | vs Blender+PyTorch | time split | peak RSS MB |")
 print("|---|---|---|---|---|---|---|")
 for preset, what, per, split, rss in rows:
     print("| %s | %s | %.3f | %.2f | %.0fx | %s | %s |" % (preset, what, per, 1 / per, thesis / per, split, rss))
