@@ -9,7 +9,7 @@ importances with scikit-learn's (seed 0), next to scikit-learn seed 1's overlap 
 features and outputs, and the masked-target study (exclude vs impute vs no mask).
 
 usage: /usr/bin/python3 tests/bench/bench_forest.py [--imsynth build/cli/imsynth] [--quick]
-       [--exact] [--skip-main] [--skip-scaling] [--skip-mask]
+       [--exact] [--skip-main] [--skip-scaling] [--skip-mask] [--npy-dir EXPORT_DIR]
 """
 import argparse
 import os
@@ -101,7 +101,16 @@ def sklearn_fit(X, Y, trees, seed, jobs=2):
 
 def main_comparison(a, work):
     n, nt, d, k, trees, topk = a.rows, a.test_rows, a.features, a.outputs, a.trees, a.top
-    X, Y = make_descriptor_like(n + nt, d, k, seed=1)
+    if a.npy_dir:
+        # Case (b): a dataset's descriptors and parameters (`imsynth dataset export --npy`):
+        # the last test_rows rows are held out.
+        X = np.load(os.path.join(a.npy_dir, "descriptors.npy")).astype(np.float32)
+        Y = np.load(os.path.join(a.npy_dir, "params.npy")).astype(np.float32)
+        nt = min(nt, len(X) // 4)
+        n, d, k = len(X) - nt, X.shape[1], Y.shape[1]
+        topk = min(topk, d // 4)
+    else:
+        X, Y = make_descriptor_like(n + nt, d, k, seed=1)
     Xtr, Ytr, Xt, Yt = X[:n], Y[:n], X[n:], Y[n:]
     paths = {}
     for name, arr in (("X", Xtr), ("Y", Ytr), ("Xt", Xt)):
@@ -233,6 +242,8 @@ def main():
     ap.add_argument("--trees", type=int, default=100)
     ap.add_argument("--top", type=int, default=2500)
     ap.add_argument("--quick", action="store_true", help="smaller grids, one seed each")
+    ap.add_argument("--npy-dir", help="compare on a dataset export (descriptors.npy, params.npy) "
+                    "instead of the synthetic problem")
     ap.add_argument("--exact", action="store_true", help="also fit imsynth in exact mode")
     ap.add_argument("--skip-main", action="store_true")
     ap.add_argument("--skip-scaling", action="store_true")
