@@ -352,6 +352,22 @@ int dataset_read_arrays(dataset *d, float **X, float **Y, uint8_t **M, size_t *r
     return 0;
 }
 
+/* A failed merge or describe: roll back, close, and remove the temporary database with
+ * its WAL and shared-memory files, so nothing half-written remains. */
+static void discard_temporary(sqlite3 *db, const char *tmp)
+{
+    if (db) {
+        sqlite3_exec(db, "ROLLBACK", NULL, NULL, NULL);
+        sqlite3_close(db);
+    }
+    unlink(tmp);
+    char side[1200];
+    snprintf(side, sizeof side, "%s-wal", tmp);
+    unlink(side);
+    snprintf(side, sizeof side, "%s-shm", tmp);
+    unlink(side);
+}
+
 /* ---------------------------------------------------------------- merge ------------ */
 
 int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path, char *err,
@@ -437,18 +453,8 @@ int dataset_merge(const char *const *inputs, int n_inputs, const char *out_path,
     }
     rc = 0;
 done:
-    if (out) {
-        sqlite3_exec(out, "ROLLBACK", NULL, NULL, NULL);
-        sqlite3_close(out);
-    }
-    if (rc) {
-        unlink(tmp);
-        char side[1200];
-        snprintf(side, sizeof side, "%s-wal", tmp);
-        unlink(side);
-        snprintf(side, sizeof side, "%s-shm", tmp);
-        unlink(side);
-    }
+    if (rc)
+        discard_temporary(out, tmp);
     free(hash0);
     free(cfg0);
     free(names0);
@@ -562,18 +568,8 @@ int dataset_describe(const char *src_path, const char *out_path, datagen_descrip
 done:
     sqlite3_finalize(rd);
     sqlite3_finalize(wr);
-    if (out) {
-        sqlite3_exec(out, "ROLLBACK", NULL, NULL, NULL);
-        sqlite3_close(out);
-    }
-    if (rc) {
-        unlink(tmp);
-        char side[1200];
-        snprintf(side, sizeof side, "%s-wal", tmp);
-        unlink(side);
-        snprintf(side, sizeof side, "%s-shm", tmp);
-        unlink(side);
-    }
+    if (rc)
+        discard_temporary(out, tmp);
     descriptor_worker_free(&dw);
     if (have_dc)
         descriptor_config_free(&dc);
