@@ -160,3 +160,73 @@ uint16_t *descriptor_compute_f16(const descriptor_config *dc, descriptor_worker 
         out[i] = nn_float_to_half(dw->full[dc->index ? dc->index[i] : i]);
     return out;
 }
+
+/* ---------------------------------------------------------------- public handle ---- */
+
+struct pipeline_descriptor {
+    descriptor_config dc;
+    descriptor_worker dw;
+};
+
+pipeline_descriptor *pipeline_descriptor_create(datagen_descriptor kind, char *err,
+                                                size_t errlen)
+{
+    if (kind != DATAGEN_DESC_VGG19_F16 && kind != DATAGEN_DESC_MOBILENETV2_F16) {
+        pipeline_error(err, errlen, "no such descriptor (%d)", (int)kind);
+        return NULL;
+    }
+    pipeline_descriptor *d = calloc(1, sizeof *d);
+    if (!d) {
+        pipeline_error(err, errlen, "out of memory");
+        return NULL;
+    }
+    if (descriptor_config_init(&d->dc, kind, NULL, err, errlen)) {
+        free(d);
+        return NULL;
+    }
+    if (descriptor_worker_init(&d->dw, &d->dc)) {
+        pipeline_descriptor_free(d);
+        pipeline_error(err, errlen, "out of memory for the descriptor's workspace");
+        return NULL;
+    }
+    return d;
+}
+
+void pipeline_descriptor_free(pipeline_descriptor *d)
+{
+    if (!d)
+        return;
+    descriptor_worker_free(&d->dw);
+    descriptor_config_free(&d->dc);
+    free(d);
+}
+
+size_t pipeline_descriptor_size(const pipeline_descriptor *d) { return d->dc.full_size; }
+
+int pipeline_descriptor_layers(const pipeline_descriptor *d, size_t offsets[64])
+{
+    if (d->dc.mobilenet) {
+        size_t off[2 * MNV2_MAX_TAPS + 1];
+        mnv2_descriptor_offsets(&d->dc.mnv2, &d->dc.mnv2_opt, off);
+        int n = d->dc.mnv2_opt.scales * d->dc.mnv2_opt.ntaps;
+        for (int i = 0; i <= n; i++)
+            offsets[i] = off[i];
+        return n;
+    }
+    vgg19_descriptor_offsets(&d->dc.net, offsets);
+    return VGG_GRAM_LAYERS;
+}
+
+int pipeline_descriptor_compute(pipeline_descriptor *d, const image *img, float *out,
+                                char *err, size_t errlen)
+{
+    uint16_t *h = descriptor_compute_f16(&d->dc, &d->dw, img);
+    if (!h)
+        return pipeline_error(err, errlen, "image of %d x %d: the descriptor needs at least "
+                                           "224 x 224 (or out of memory)",
+                              img->width, img->height);
+    for (size_t i = 0; i < d->dc.n_stored; i++)
+        out[i] = nn_half_to_float(h[i]);
+    free(h);
+    return 0;
+}

@@ -148,6 +148,26 @@ extern const char *const datagen_stage_names[5];
  * `stop`, or -1 with a message. */
 int datagen_run(const datagen_options *o, long long *made, char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- descriptors ------ */
+
+/* A dataset descriptor outside datagen: the same network, options and float16 rounding
+ * as datagen stores (describe.c), so an image described here gives exactly the values a
+ * dataset row of the same image holds. Not shareable between threads: one per thread.
+ * layer_offsets lets a Gram distance weigh each tapped layer alike. */
+typedef struct pipeline_descriptor pipeline_descriptor;
+
+/* kind: DATAGEN_DESC_VGG19_F16 or DATAGEN_DESC_MOBILENETV2_F16 (whole descriptor). */
+pipeline_descriptor *pipeline_descriptor_create(datagen_descriptor kind, char *err,
+                                                size_t errlen);
+void pipeline_descriptor_free(pipeline_descriptor *d);
+size_t pipeline_descriptor_size(const pipeline_descriptor *d);
+/* Where each Gram layer starts, offsets[n] = size; returns n (the layer count). */
+int pipeline_descriptor_layers(const pipeline_descriptor *d, size_t offsets[64]);
+/* out (size floats) = the descriptor of a linear RGB(A)/grey image of at least 224 x 224,
+ * each value rounded through float16 as stored. Returns 0, or -1 with a message. */
+int pipeline_descriptor_compute(pipeline_descriptor *d, const image *img, float *out,
+                                char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- dataset ---------- */
 
 typedef struct dataset dataset;
@@ -227,5 +247,59 @@ int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen);
  * each labelled with its id (and view when > 0). */
 int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols, int tile,
                           char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- predictor -------- */
+/*
+ * A model directory, written by predictor_fit (`imsynth fit-predictor`):
+ *   model.json               what the model is: format "imsynth-model/1", the training
+ *                            dataset's config (super-shader, scene, preset, descriptor),
+ *                            parameter names and roles, the input transform, the network,
+ *                            the training settings and its figures
+ *   predictor.safetensors    the input transform (feature choice, signed-log statistics,
+ *                            PCA basis) and the network's weights
+ *   catalogue.safetensors    the training samples' reduced descriptors, parameters, active
+ *                            masks and ids: nearest-neighbour retrieval and baselines
+ * Parameter roles: a "Mult N" selector is a classification (a softmax head of N classes);
+ * "Pattern Offset" moves the pattern like a seed and is not a target (a prediction carries
+ * the training mean); every other parameter is a value regressed where it is active.
+ *
+ * A predictor is not shareable between threads (the network keeps activations): one per
+ * thread, or calls from one thread at a time.
+ */
+typedef struct predictor predictor;
+
+predictor *predictor_load(const char *model_dir, char *err, size_t errlen);
+void predictor_free(predictor *p);
+
+int predictor_n_params(const predictor *p);
+/* Names in the super-shader's parameter order (sg_params_from_graph's). */
+const char *const *predictor_param_names(const predictor *p);
+/* The descriptor the model reads (a dataset's rows, or pipeline_descriptor_create(kind)). */
+datagen_descriptor predictor_descriptor_kind(const predictor *p);
+size_t predictor_descriptor_size(const predictor *p);
+/* The training dataset's config JSON (as `imsynth dataset info` prints it). */
+const char *predictor_dataset_config(const predictor *p);
+
+/* The training set's mean of every parameter (the thesis's result, as a baseline). */
+const float *predictor_mean_params(const predictor *p);
+
+/* The catalogue: training samples kept with the model. Sample i's parameters (n_params)
+ * and, if id is not NULL, its dataset id. */
+size_t predictor_catalogue_size(const predictor *p);
+const float *predictor_catalogue_params(const predictor *p, size_t i, long long *id);
+
+/* Up to k hypotheses for a descriptor (predictor_descriptor_size floats), most probable
+ * first: the k likeliest combinations of the selectors under the network's (independent)
+ * softmax heads, each with the value parameters the network predicts.
+ * params (k x n_params), prob (k, may be NULL): the combination's probability.
+ * Returns the number written (>= 1), or -1 with a message. */
+int predictor_predict(predictor *p, const float *descriptor, int k, float *params,
+                      double *prob, char *err, size_t errlen);
+
+/* The k catalogue samples nearest to a descriptor in the model's reduced input space
+ * (Euclidean over the whitened PCA components), nearest first: index (k), dist (k, may
+ * be NULL). Returns the number written, or -1 with a message. */
+int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *index,
+                      double *dist, char *err, size_t errlen);
 
 #endif
