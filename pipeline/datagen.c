@@ -102,19 +102,9 @@ static uint64_t splitmix64(uint64_t *state)
 
 static double uniform01(uint64_t *state) { return (double)(splitmix64(state) >> 11) * 0x1p-53; }
 
-/* A view's settings: which scene, where its light is, exposure and white balance. */
-typedef struct view_settings {
-    int flash;
-    double light[3]; /* the light's location */
-    double exposure; /* stops */
-    double wb[3];    /* channel gains */
-    double rotate;   /* texture space: radians about +Z */
-    double shift[2]; /* texture space: metres in x, y */
-} view_settings;
-
 static void view_settings_make(const datagen_augment *a, const double base_light[3],
                                const double flash_light[3], long long id, int view,
-                               view_settings *vs)
+                               pipeline_view *vs)
 {
     memset(vs, 0, sizeof *vs);
     vs->wb[0] = vs->wb[1] = vs->wb[2] = 1.0;
@@ -140,12 +130,12 @@ static void view_settings_make(const datagen_augment *a, const double base_light
         vs->shift[k] = (uniform01(&state) * 2.0 - 1.0) * a->shift;
 }
 
-static int view_moves_texture(const view_settings *vs)
+static int view_moves_texture(const pipeline_view *vs)
 {
     return vs->rotate != 0.0 || vs->shift[0] != 0.0 || vs->shift[1] != 0.0;
 }
 
-static char *view_settings_json(const view_settings *vs)
+static char *view_settings_json(const pipeline_view *vs)
 {
     char *s = malloc(256);
     if (s)
@@ -158,9 +148,63 @@ static char *view_settings_json(const view_settings *vs)
     return s;
 }
 
-/* The scene JSON text of a view: its first light moved to the view's location, and the
- * first object's texture space rotated and shifted (an object transform) when asked. */
-static char *scene_for_view(const char *scene_text, const view_settings *vs)
+/* The inverse of view_settings_json, for a stored row (an evaluation renders candidates in
+ * the row's own view). Fields written since ("rotation_z", "shift") may be absent: 0. */
+int pipeline_view_parse(const char *view_json, pipeline_view *vs, char *err, size_t errlen)
+{
+    memset(vs, 0, sizeof *vs);
+    vs->wb[0] = vs->wb[1] = vs->wb[2] = 1.0;
+    cJSON *root = cJSON_Parse(view_json ? view_json : "");
+    const char *scene = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(root, "scene"));
+    const cJSON *light = cJSON_GetObjectItemCaseSensitive(root, "light");
+    const cJSON *exposure = cJSON_GetObjectItemCaseSensitive(root, "exposure");
+    const cJSON *wb = cJSON_GetObjectItemCaseSensitive(root, "wb");
+    const cJSON *rot = cJSON_GetObjectItemCaseSensitive(root, "rotation_z");
+    const cJSON *shift = cJSON_GetObjectItemCaseSensitive(root, "shift");
+    int ok = scene && (!strcmp(scene, "plain") || !strcmp(scene, "flash")) &&
+             cJSON_GetArraySize(light) == 3 && cJSON_IsNumber(exposure) &&
+             cJSON_GetArraySize(wb) == 3 && (!rot || cJSON_IsNumber(rot)) &&
+             (!shift || cJSON_GetArraySize(shift) == 2);
+    if (ok) {
+        vs->flash = !strcmp(scene, "flash");
+        vs->exposure = exposure->valuedouble;
+        vs->rotate = rot ? rot->valuedouble : 0.0;
+        for (int k = 0; k < 3; k++) {
+            const cJSON *l = cJSON_GetArrayItem(light, k), *w = cJSON_GetArrayItem(wb, k);
+            ok = ok && cJSON_IsNumber(l) && cJSON_IsNumber(w);
+            vs->light[k] = ok ? l->valuedouble : 0.0;
+            vs->wb[k] = ok ? w->valuedouble : 1.0;
+        }
+        for (int k = 0; k < 2 && shift; k++) {
+            const cJSON *v = cJSON_GetArrayItem(shift, k);
+            ok = ok && cJSON_IsNumber(v);
+            vs->shift[k] = ok ? v->valuedouble : 0.0;
+        }
+    }
+    cJSON_Delete(root);
+    if (!ok)
+        return pipeline_error(err, errlen, "view settings \"%.200s\": expected scene plain|flash, "
+                                           "light[3], exposure, wb[3] (rotation_z, shift[2])",
+                              view_json ? view_json : "(null)");
+    return 0;
+}
+
+void pipeline_view_apply_gain(const pipeline_view *vs, image *img)
+{
+    /* Exposure and white balance act on the linear image, as a camera's would. */
+    if (vs->exposure == 0.0 && vs->wb[0] == 1.0 && vs->wb[1] == 1.0 && vs->wb[2] == 1.0)
+        return;
+    float gain[3];
+    for (int k = 0; k < 3; k++)
+        gain[k] = (float)(exp2(vs->exposure) * vs->wb[k]);
+    size_t n = (size_t)img->width * (size_t)img->height;
+    int nc = img->channels < 3 ? img->channels : 3;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < nc; k++)
+            img->pixels[i * (size_t)img->channels + (size_t)k] *= gain[k];
+}
+
+char *pipeline_scene_for_view(const char *scene_text, const pipeline_view *vs)
 {
     cJSON *root = cJSON_Parse(scene_text);
     cJSON *lights = root ? cJSON_GetObjectItemCaseSensitive(root, "lights") : NULL;
@@ -301,7 +345,7 @@ static int make_view(worker *w, const render_material *m, long long id, int view
 {
     const shared *sh = w->sh;
     const datagen_options *o = sh->o;
-    view_settings vs;
+    pipeline_view vs;
     view_settings_make(&o->augment, sh->base_light, sh->flash_light, id, view, &vs);
     view_result *vr = &r->views[view];
     if (!(vr->view_json = view_settings_json(&vs)))
@@ -313,7 +357,7 @@ static int make_view(worker *w, const render_material *m, long long id, int view
     render_scene *own = NULL;
     const double *unmoved = vs.flash ? sh->flash_light : sh->base_light;
     if (memcmp(vs.light, unmoved, sizeof vs.light) || view_moves_texture(&vs)) {
-        char *text = scene_for_view(vs.flash ? sh->flash_text : sh->scene_text, &vs);
+        char *text = pipeline_scene_for_view(vs.flash ? sh->flash_text : sh->scene_text, &vs);
         char msg[512] = "out of memory";
         own = text ? render_scene_load_json(text, strlen(text), "augmented scene", msg, sizeof msg)
                    : NULL;
@@ -338,16 +382,7 @@ static int make_view(worker *w, const render_material *m, long long id, int view
     render_scene_free(own);
     if (rc < 0)
         return pipeline_error(err, errlen, "id %lld view %d: render: %s", id, view, msg);
-    /* Exposure and white balance act on the linear image, as a camera's would. */
-    if (vs.exposure != 0.0 || vs.wb[0] != 1.0 || vs.wb[2] != 1.0) {
-        float gain[3];
-        for (int k = 0; k < 3; k++)
-            gain[k] = (float)(exp2(vs.exposure) * vs.wb[k]);
-        size_t n = (size_t)img.width * (size_t)img.height;
-        for (size_t i = 0; i < n; i++)
-            for (int k = 0; k < 3; k++)
-                img.pixels[i * (size_t)img.channels + (size_t)k] *= gain[k];
-    }
+    pipeline_view_apply_gain(&vs, &img);
     double t1 = pipeline_now();
     w->stage_seconds[2] += t1 - t0;
 

@@ -663,15 +663,45 @@ int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen)
 
 /* ---------------------------------------------------------------- contact sheet ---- */
 
-/* A 3x5 pixel font for the labels: digits, then 'v'. Each glyph is 5 rows of 3 bits. */
-static const unsigned char glyphs[11][5] = {
+/* A 3x5 pixel font for the labels. Each glyph is 5 rows of 3 bits (4 = left column). Letters
+ * are drawn as capitals whatever their case, except 'v', the small v of "12v3" labels. */
+static const unsigned char digit_glyphs[10][5] = {
     {7, 5, 5, 5, 7}, {2, 6, 2, 2, 7}, {7, 1, 7, 4, 7}, {7, 1, 7, 1, 7}, {5, 5, 7, 1, 1},
     {7, 4, 7, 1, 7}, {7, 4, 7, 5, 7}, {7, 1, 1, 1, 1}, {7, 5, 7, 5, 7}, {7, 5, 7, 1, 7},
-    {0, 0, 5, 5, 2},
+};
+static const unsigned char letter_glyphs[26][5] = {
+    {2, 5, 7, 5, 5}, {6, 5, 6, 5, 6}, {3, 4, 4, 4, 3}, {6, 5, 5, 5, 6}, {7, 4, 6, 4, 7}, /* A-E */
+    {7, 4, 6, 4, 4}, {3, 4, 5, 5, 3}, {5, 5, 7, 5, 5}, {7, 2, 2, 2, 7}, {1, 1, 1, 5, 2}, /* F-J */
+    {5, 5, 6, 5, 5}, {4, 4, 4, 4, 7}, {5, 7, 7, 5, 5}, {6, 5, 5, 5, 5}, {2, 5, 5, 5, 2}, /* K-O */
+    {6, 5, 6, 4, 4}, {2, 5, 5, 6, 3}, {6, 5, 6, 5, 5}, {3, 4, 2, 1, 6}, {7, 2, 2, 2, 2}, /* P-T */
+    {5, 5, 5, 5, 7}, {0, 0, 5, 5, 2}, {5, 5, 7, 7, 5}, {5, 5, 2, 5, 5}, {5, 5, 2, 2, 2}, /* U-Y */
+    {7, 1, 2, 4, 7},                                                                     /* Z */
 };
 
-/* Draws text (digits and 'v') at (x, y) with `scale`-pixel dots, white on a dark box. */
-static void draw_label(image *sheet, int x, int y, const char *text, int scale)
+/* The glyph of c; NULL draws nothing (a space or an unknown character). */
+static const unsigned char *glyph(char c)
+{
+    static const unsigned char minus[5] = {0, 0, 7, 0, 0}, dot[5] = {0, 0, 0, 0, 2},
+                               underscore[5] = {0, 0, 0, 0, 7}, slash[5] = {1, 1, 2, 4, 4},
+                               plus[5] = {0, 2, 7, 2, 0}, percent[5] = {5, 1, 2, 4, 5};
+    if (c >= '0' && c <= '9')
+        return digit_glyphs[c - '0'];
+    if (c >= 'a' && c <= 'z')
+        return letter_glyphs[c - 'a'];
+    if (c >= 'A' && c <= 'Z')
+        return letter_glyphs[c == 'V' ? 'v' - 'a' : c - 'A'];
+    switch (c) {
+    case '-': return minus;
+    case '.': return dot;
+    case '_': return underscore;
+    case '/': return slash;
+    case '+': return plus;
+    case '%': return percent;
+    default: return NULL;
+    }
+}
+
+void pipeline_sheet_label(image *sheet, int x, int y, const char *text, int scale)
 {
     int n = (int)strlen(text), w = (4 * n + 1) * scale, h = 7 * scale;
     for (int py = y; py < y + h && py < sheet->height; py++)
@@ -679,12 +709,12 @@ static void draw_label(image *sheet, int x, int y, const char *text, int scale)
             for (int c = 0; c < 3; c++)
                 sheet->pixels[((size_t)py * (size_t)sheet->width + (size_t)px) * 3 + (size_t)c] = 0.0f;
     for (int i = 0; i < n; i++) {
-        int g = text[i] == 'v' ? 10 : text[i] - '0';
-        if (g < 0 || g > 10)
+        const unsigned char *g = glyph(text[i]);
+        if (!g)
             continue;
         for (int r = 0; r < 5; r++)
             for (int b = 0; b < 3; b++) {
-                if (!(glyphs[g][r] >> (2 - b) & 1))
+                if (!(g[r] >> (2 - b) & 1))
                     continue;
                 for (int sy = 0; sy < scale; sy++)
                     for (int sx = 0; sx < scale; sx++) {
@@ -696,6 +726,22 @@ static void draw_label(image *sheet, int x, int y, const char *text, int scale)
                     }
             }
     }
+}
+
+int pipeline_sheet_paste(image *sheet, const image *img, int ox, int oy, int tile)
+{
+    image small;
+    if (image_resize(img, tile, tile, &small))
+        return -1;
+    for (int y = 0; y < tile && oy + y < sheet->height; y++)
+        for (int x = 0; x < tile && ox + x < sheet->width; x++)
+            for (int c = 0; c < 3; c++)
+                sheet->pixels[((size_t)(oy + y) * (size_t)sheet->width + (size_t)(ox + x)) * 3 +
+                              (size_t)c] =
+                    small.pixels[((size_t)y * (size_t)tile + (size_t)x) * (size_t)small.channels +
+                                 (size_t)(c < small.channels ? c : 0)];
+    image_free(&small);
+    return 0;
 }
 
 int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols, int tile,
@@ -725,26 +771,17 @@ int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols,
             rc = got < 0 ? -1 : 0;
             break;
         }
-        image small;
-        if (image_resize(&row.img, tile, tile, &small)) {
+        int ox = (i % cols) * tile, oy = (i / cols) * tile;
+        if (pipeline_sheet_paste(&sheet, &row.img, ox, oy, tile)) {
             rc = pipeline_error(err, errlen, "out of memory");
             break;
         }
-        int ox = (i % cols) * tile, oy = (i / cols) * tile;
-        for (int y = 0; y < tile; y++)
-            for (int x = 0; x < tile; x++)
-                for (int c = 0; c < 3; c++)
-                    sheet.pixels[((size_t)(oy + y) * (size_t)sheet.width + (size_t)(ox + x)) * 3 +
-                                 (size_t)c] =
-                        small.pixels[((size_t)y * (size_t)tile + (size_t)x) * (size_t)small.channels +
-                                     (size_t)(c < small.channels ? c : 0)];
-        image_free(&small);
         char label[40];
         if (row.view)
             snprintf(label, sizeof label, "%lldv%d", row.id, row.view);
         else
             snprintf(label, sizeof label, "%lld", row.id);
-        draw_label(&sheet, ox + 2, oy + 2, label, tile >= 128 ? 2 : 1);
+        pipeline_sheet_label(&sheet, ox + 2, oy + 2, label, tile >= 128 ? 2 : 1);
     }
     dataset_iter_free(it);
     char msg[768];

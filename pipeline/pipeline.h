@@ -302,4 +302,74 @@ int predictor_predict(predictor *p, const float *descriptor, int k, float *param
 int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *index,
                       double *dist, char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- evaluation ------- */
+/*
+ * `imsynth evaluate` (evaluate.c; docs/evaluation.md): every test input (a synthetic test
+ * dataset's rows, hand-made Cycles materials) against every method (the training mean, a
+ * random training sample, nearest-neighbour retrieval, the predictor, and their top-k picked
+ * by rendering), in parameter space and in image space. The arithmetic below
+ * (evaluate_metrics.c) is public so that tests and benchmarks measure the same way.
+ */
+
+/* Gram distance of two descriptors whose layer l spans [offsets[l], offsets[l + 1])
+ * (pipeline_descriptor_layers): the mean over layers of
+ *     ||a_l - b_l||_2 / (||a_l||_2 + ||b_l||_2 + 1e-12),
+ * so each layer counts alike whatever its size or scale; symmetric, in [0, 1], 0 for equal
+ * descriptors, unchanged when both are scaled alike. Sums in double. */
+double evaluate_gram_distance(const float *a, const float *b, const size_t *offsets,
+                              int n_layers);
+
+/* The colour term: mean |a - b| over the 32 x 32 box averages (7 x 7 pixels each) of the
+ * two images' centre 224 x 224 crops, R, G and B, values clamped to [0, 1] first (what the
+ * descriptors see; a stored dataset render is clamped so). Grey images count as R = G = B.
+ * Both images at least 224 x 224. Returns 0, or -1 with a message. */
+int evaluate_colour_distance(const image *a, const image *b, double *out, char *err,
+                             size_t errlen);
+
+/* A distance divided by the target's floor (two renders of the target's own parameters at
+ * Pattern Offsets 0.5 apart; for a hand-made material, its render against its render with
+ * shifted texture coordinates): 1 is as close as an exact answer can be expected to come.
+ * A floor below EVALUATE_FLOOR_EPSILON (a material that nothing moves) is taken as the
+ * epsilon, and the report counts such floors. */
+#define EVALUATE_FLOOR_EPSILON 1e-3
+double evaluate_normalise(double distance, double floor);
+
+/* The q-quantile (q in [0, 1]) of n values, linear between order statistics (numpy's
+ * default): position q (n - 1) of the sorted values. NaNs are left out; NAN when nothing is
+ * left. v is not changed. */
+double evaluate_quantile(const double *v, size_t n, double q);
+
+/* The coefficient of determination of predictions against truths (n of them, stride 1):
+ * 1 - SSE / SST, SST taken about `reference_mean` (the training mean: a predictor that
+ * predicts it scores exactly 0, any other constant less). NAN when SST is 0 or n is 0. */
+double evaluate_r2(const double *pred, const double *truth, size_t n, double reference_mean);
+/* std(pred) / std(truth) (population standard deviations): 0 for a constant predictor, 1
+ * when the predictions vary as much as the targets. NAN when the truths do not vary. */
+double evaluate_spread(const double *pred, const double *truth, size_t n);
+
+typedef struct evaluate_options {
+    const char *model_dir;    /* written by predictor_fit */
+    const char *test_path;    /* a test dataset (renders stored); may be NULL with handmade */
+    const char *handmade_dir; /* NULL, or a folder of <name>/{render,shifted,flash}.exr */
+    const char *out_dir;      /* the report folder (must not exist; written whole or not) */
+    const char *graph_path;   /* super-shader; NULL: found with pipeline_find_data */
+    const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
+    const datagen_preset *preset; /* how candidates are rendered */
+    int top_k;                /* candidates of the -topk methods (>= 1) */
+    long long limit;          /* at most this many test rows (<= 0: all) */
+    int threads;              /* workers (0 = online CPUs); never changes a byte */
+    int blender;              /* 4 or 3 */
+    uint64_t seed;            /* render seeds and the random method's draws */
+    int sheet_inputs;         /* synthetic inputs on the contact sheet (16) */
+    /* After every input, with counts and seconds since the start. May be NULL. */
+    void (*progress)(void *ctx, long long done, long long todo, double seconds);
+    void *progress_ctx;
+} evaluate_options;
+
+/* Runs the evaluation into o->out_dir: report.json, summary.csv, summary.md,
+ * sheet-synthetic.png, sheet-handmade.png (when there are hand-made inputs), index.html.
+ * The folder is written as o->out_dir.tmp.PID and renamed when complete; on error nothing
+ * is left. Returns 0, or -1 with a message naming the file and the place. */
+int evaluate_run(const evaluate_options *o, char *err, size_t errlen);
+
 #endif

@@ -1,0 +1,140 @@
+/* The evaluation's arithmetic (pipeline.h, "evaluation"): distances between descriptors and
+ * images, the floor's normalisation, quantiles, R^2 and spread. Kept apart from evaluate.c
+ * (which drives the predictor and the renderer) so that each piece is tested on known
+ * values, and so that a benchmark can link it alone. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline/pipeline_internal.h"
+
+double evaluate_gram_distance(const float *a, const float *b, const size_t *offsets,
+                              int n_layers)
+{
+    if (n_layers <= 0)
+        return NAN;
+    double sum = 0.0;
+    for (int l = 0; l < n_layers; l++) {
+        double diff = 0.0, na = 0.0, nb = 0.0;
+        for (size_t i = offsets[l]; i < offsets[l + 1]; i++) {
+            double x = a[i], y = b[i];
+            diff += (x - y) * (x - y);
+            na += x * x;
+            nb += y * y;
+        }
+        /* Triangle inequality: ||a - b|| <= ||a|| + ||b||, so each term is in [0, 1]. */
+        sum += sqrt(diff) / (sqrt(na) + sqrt(nb) + 1e-12);
+    }
+    return sum / n_layers;
+}
+
+enum { CROP = 224, GRID = 32, BOX = CROP / GRID };
+_Static_assert(GRID * BOX == CROP, "the grid's boxes tile the crop");
+
+/* The 32 x 32 x 3 box averages of img's centre crop, clamped to [0, 1]. */
+static void box_averages(const image *img, double out[GRID * GRID * 3])
+{
+    int x0 = (img->width - CROP) / 2, y0 = (img->height - CROP) / 2;
+    size_t nc = (size_t)img->channels;
+    memset(out, 0, sizeof(double) * GRID * GRID * 3);
+    for (int y = 0; y < CROP; y++)
+        for (int x = 0; x < CROP; x++) {
+            const float *px =
+                img->pixels + ((size_t)(y0 + y) * (size_t)img->width + (size_t)(x0 + x)) * nc;
+            double *box = out + ((size_t)(y / BOX) * GRID + (size_t)(x / BOX)) * 3;
+            for (int c = 0; c < 3; c++) {
+                float v = px[nc >= 3 ? (size_t)c : 0];
+                box[c] += v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; /* NaN counts 0 */
+            }
+        }
+    for (int i = 0; i < GRID * GRID * 3; i++)
+        out[i] /= BOX * BOX;
+}
+
+int evaluate_colour_distance(const image *a, const image *b, double *out, char *err,
+                             size_t errlen)
+{
+    const image *im[2] = {a, b};
+    for (int k = 0; k < 2; k++)
+        if (im[k]->width < CROP || im[k]->height < CROP ||
+            (im[k]->channels != 1 && im[k]->channels < 3))
+            return pipeline_error(err, errlen,
+                                  "colour distance: image %d is %d x %d with %d channels; needs "
+                                  "at least %d x %d, grey or RGB(A)",
+                                  k + 1, im[k]->width, im[k]->height, im[k]->channels, CROP, CROP);
+    double *avg = malloc(sizeof(double) * GRID * GRID * 3 * 2);
+    if (!avg)
+        return pipeline_error(err, errlen, "out of memory");
+    box_averages(a, avg);
+    box_averages(b, avg + GRID * GRID * 3);
+    double sum = 0.0;
+    for (int i = 0; i < GRID * GRID * 3; i++)
+        sum += fabs(avg[i] - avg[GRID * GRID * 3 + i]);
+    free(avg);
+    *out = sum / (GRID * GRID * 3);
+    return 0;
+}
+
+double evaluate_normalise(double distance, double floor)
+{
+    return distance / (floor > EVALUATE_FLOOR_EPSILON ? floor : EVALUATE_FLOOR_EPSILON);
+}
+
+static int cmp_double(const void *pa, const void *pb)
+{
+    double a = *(const double *)pa, b = *(const double *)pb;
+    return (a > b) - (a < b);
+}
+
+double evaluate_quantile(const double *v, size_t n, double q)
+{
+    double *s = malloc((n ? n : 1) * sizeof *s);
+    if (!s)
+        return NAN;
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!isnan(v[i]))
+            s[m++] = v[i];
+    double r = NAN;
+    if (m) {
+        qsort(s, m, sizeof *s, cmp_double);
+        q = q < 0.0 ? 0.0 : q > 1.0 ? 1.0 : q;
+        double pos = q * (double)(m - 1);
+        size_t lo = (size_t)pos;
+        size_t hi = lo + 1 < m ? lo + 1 : lo;
+        double t = pos - (double)lo;
+        r = s[lo] + t * (s[hi] - s[lo]);
+    }
+    free(s);
+    return r;
+}
+
+double evaluate_r2(const double *pred, const double *truth, size_t n, double reference_mean)
+{
+    double sse = 0.0, sst = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        sse += (pred[i] - truth[i]) * (pred[i] - truth[i]);
+        sst += (truth[i] - reference_mean) * (truth[i] - reference_mean);
+    }
+    return sst > 0.0 ? 1.0 - sse / sst : NAN;
+}
+
+/* Population variance, two passes (the mean first: no cancellation). */
+static double variance(const double *v, size_t n)
+{
+    double mean = 0.0, ss = 0.0;
+    for (size_t i = 0; i < n; i++)
+        mean += v[i];
+    mean /= (double)n;
+    for (size_t i = 0; i < n; i++)
+        ss += (v[i] - mean) * (v[i] - mean);
+    return ss / (double)n;
+}
+
+double evaluate_spread(const double *pred, const double *truth, size_t n)
+{
+    if (n == 0)
+        return NAN;
+    double vt = variance(truth, n);
+    return vt > 0.0 ? sqrt(variance(pred, n) / vt) : NAN;
+}

@@ -1,0 +1,230 @@
+/*
+ * The evaluation's arithmetic (pipeline.h, "evaluation"): the Gram distance (0 for equal,
+ * symmetric, scale-free per layer, a small case worked by hand), the colour term, the floor's
+ * epsilon, quantiles against numpy's linear rule, R^2 (1 for the truth, 0 for the reference
+ * mean, below 0 for any other constant), the spread; and the contact sheet's font.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "pipeline/pipeline_internal.h"
+
+static void test_gram_distance(void **state)
+{
+    (void)state;
+    /* Two layers: [0, 2) and [2, 5). */
+    const size_t off[3] = {0, 2, 5};
+    const float a[5] = {3, 4, 1, 2, 2};
+    const float b[5] = {3, 4, 1, 2, 2};
+    assert_true(evaluate_gram_distance(a, b, off, 2) == 0.0);
+
+    /* Worked by hand. Layer 0: a = (3, 4), c = (0, 4): ||a - c|| = 3, ||a|| = 5, ||c|| = 4:
+     * 3/9. Layer 1: a = (1, 2, 2), c = (-1, -2, -2): ||a - c|| = 6, norms 3 and 3: 6/6 = 1
+     * (opposite vectors: the largest a layer can give). Mean: (1/3 + 1) / 2 = 2/3. */
+    const float c[5] = {0, 4, -1, -2, -2};
+    assert_true(fabs(evaluate_gram_distance(a, c, off, 2) - 2.0 / 3.0) < 1e-12);
+    assert_true(evaluate_gram_distance(a, c, off, 2) == evaluate_gram_distance(c, a, off, 2));
+
+    /* Scale-free per layer: scaling one layer of both by 1000 and the other by 1e-3 changes
+     * nothing (to rounding), while an unnormalised distance would be dominated by layer 1. */
+    float as[5], cs[5];
+    for (int i = 0; i < 5; i++) {
+        float s = i < 2 ? 1e-3f : 1e3f;
+        as[i] = a[i] * s;
+        cs[i] = c[i] * s;
+    }
+    assert_true(fabs(evaluate_gram_distance(as, cs, off, 2) - 2.0 / 3.0) < 1e-6);
+
+    /* Zero against zero is 0, zero against anything is 1 per layer. */
+    const float z[5] = {0};
+    assert_true(evaluate_gram_distance(z, z, off, 2) == 0.0);
+    assert_true(fabs(evaluate_gram_distance(z, a, off, 2) - 1.0) < 1e-12);
+    assert_true(isnan(evaluate_gram_distance(a, b, off, 0)));
+}
+
+static void fill(image *img, float r, float g, float b)
+{
+    for (int i = 0; i < img->width * img->height; i++) {
+        img->pixels[i * img->channels + 0] = r;
+        img->pixels[i * img->channels + 1] = g;
+        img->pixels[i * img->channels + 2] = b;
+    }
+}
+
+static void test_colour_distance(void **state)
+{
+    (void)state;
+    image a, b, grey, small;
+    char err[256];
+    double d = -1;
+    assert_int_equal(image_alloc(&a, 256, 240, 3), 0);
+    assert_int_equal(image_alloc(&b, 224, 224, 4), 0);
+    assert_int_equal(image_alloc(&grey, 230, 230, 1), 0);
+    assert_int_equal(image_alloc(&small, 200, 256, 3), 0);
+    fill(&a, 0.2f, 0.4f, 0.6f);
+    for (int i = 0; i < 224 * 224; i++) {
+        b.pixels[i * 4 + 0] = 0.2f;
+        b.pixels[i * 4 + 1] = 0.4f;
+        b.pixels[i * 4 + 2] = 0.6f;
+        b.pixels[i * 4 + 3] = 0.0f; /* alpha is not a colour */
+    }
+    assert_int_equal(evaluate_colour_distance(&a, &b, &d, err, sizeof err), 0);
+    assert_true(fabs(d) < 1e-7);
+
+    /* Outside the centre crop nothing counts: paint a's border (16 columns each side, 8
+     * rows top and bottom) and the distance stays 0. */
+    for (int y = 0; y < 240; y++)
+        for (int x = 0; x < 256; x++)
+            if (x < 16 || x >= 240 || y < 8 || y >= 232)
+                a.pixels[(y * 256 + x) * 3] = 5.0f;
+    assert_int_equal(evaluate_colour_distance(&a, &b, &d, err, sizeof err), 0);
+    assert_true(fabs(d) < 1e-7);
+
+    /* Values are clamped to [0, 1]: 7 against 1 is the same as 1 against 1. Then a known
+     * difference: b's red + 0.3 everywhere in the crop is 0.3 / 3 = 0.1 over R, G and B. */
+    fill(&a, 7.0f, 0.4f, 0.6f);
+    for (int i = 0; i < 224 * 224; i++)
+        b.pixels[i * 4 + 0] = 1.0f;
+    assert_int_equal(evaluate_colour_distance(&a, &b, &d, err, sizeof err), 0);
+    assert_true(fabs(d) < 1e-7);
+    for (int i = 0; i < 224 * 224; i++)
+        b.pixels[i * 4 + 0] = 0.7f;
+    assert_int_equal(evaluate_colour_distance(&a, &b, &d, err, sizeof err), 0);
+    assert_true(fabs(d - 0.1) < 1e-6);
+
+    /* Pooling: a checkerboard of 1-pixel squares pools to 0.5 in every 7 x 7 box except
+     * for the odd pixel (25 of 49 against 24): |25/49 - 0.5| = 1/98 per box and channel. */
+    image cb;
+    assert_int_equal(image_alloc(&cb, 224, 224, 3), 0);
+    for (int y = 0; y < 224; y++)
+        for (int x = 0; x < 224; x++)
+            for (int c = 0; c < 3; c++)
+                cb.pixels[(y * 224 + x) * 3 + c] = (float)((x + y + 1) % 2 == 0);
+    fill(&a, 0.5f, 0.5f, 0.5f);
+    assert_int_equal(evaluate_colour_distance(&cb, &a, &d, err, sizeof err), 0);
+    /* A box holds 25 pixels of its corner's parity and 24 of the other: 25 or 24 ones of
+     * 49, 1/98 from 0.5 either way. */
+    assert_true(fabs(d - 1.0 / 98.0) < 1e-7);
+    image_free(&cb);
+
+    /* Grey counts as R = G = B. */
+    for (int i = 0; i < 230 * 230; i++)
+        grey.pixels[i] = 0.5f;
+    assert_int_equal(evaluate_colour_distance(&grey, &a, &d, err, sizeof err), 0);
+    assert_true(fabs(d) < 1e-7);
+
+    /* Too small: a clear error. */
+    assert_int_equal(evaluate_colour_distance(&a, &small, &d, err, sizeof err), -1);
+    assert_non_null(strstr(err, "image 2 is 200 x 256"));
+    image_free(&a);
+    image_free(&b);
+    image_free(&grey);
+    image_free(&small);
+}
+
+static void test_floor_epsilon(void **state)
+{
+    (void)state;
+    assert_true(evaluate_normalise(0.5, 0.25) == 2.0);
+    /* A floor of 0 (a material nothing moves) divides by the epsilon, never by 0. */
+    assert_true(evaluate_normalise(0.5, 0.0) == 0.5 / EVALUATE_FLOOR_EPSILON);
+    assert_true(evaluate_normalise(0.5, EVALUATE_FLOOR_EPSILON / 10) ==
+                0.5 / EVALUATE_FLOOR_EPSILON);
+    assert_true(isfinite(evaluate_normalise(1.0, -1.0)));
+}
+
+static void test_quantiles(void **state)
+{
+    (void)state;
+    /* numpy.percentile([7, 1, 3, 5, 9], [0, 10, 50, 90, 100]) = 1, 1.8, 5, 8.2, 9. */
+    const double v[5] = {7, 1, 3, 5, 9};
+    assert_true(fabs(evaluate_quantile(v, 5, 0.0) - 1.0) < 1e-12);
+    assert_true(fabs(evaluate_quantile(v, 5, 0.1) - 1.8) < 1e-12);
+    assert_true(fabs(evaluate_quantile(v, 5, 0.5) - 5.0) < 1e-12);
+    assert_true(fabs(evaluate_quantile(v, 5, 0.9) - 8.2) < 1e-12);
+    assert_true(fabs(evaluate_quantile(v, 5, 1.0) - 9.0) < 1e-12);
+    assert_true(v[0] == 7 && v[1] == 1); /* not sorted in place */
+    /* An even count: the median is the midpoint; NaNs are left out. */
+    const double w[5] = {4, NAN, 1, 3, 2};
+    assert_true(fabs(evaluate_quantile(w, 5, 0.5) - 2.5) < 1e-12);
+    assert_true(fabs(evaluate_quantile(w, 5, 0.9) - 3.7) < 1e-12);
+    const double one = 42;
+    assert_true(evaluate_quantile(&one, 1, 0.1) == 42);
+    assert_true(isnan(evaluate_quantile(v, 0, 0.5)));
+    const double nans[2] = {NAN, NAN};
+    assert_true(isnan(evaluate_quantile(nans, 2, 0.5)));
+}
+
+static void test_r2_and_spread(void **state)
+{
+    (void)state;
+    const double truth[6] = {0.1, 0.9, 0.4, 0.6, 0.2, 0.8};
+    const double mean = 0.5; /* the "training" mean */
+    double constant[6], other[6], half[6];
+    for (int i = 0; i < 6; i++) {
+        constant[i] = mean;
+        other[i] = 0.45;
+        half[i] = mean + 0.5 * (truth[i] - mean);
+    }
+    assert_true(evaluate_r2(truth, truth, 6, mean) == 1.0);
+    assert_true(evaluate_r2(constant, truth, 6, mean) == 0.0);
+    assert_true(evaluate_r2(other, truth, 6, mean) < 0.0);
+    /* Shrinking halfway to the mean: SSE = SST / 4, R^2 = 0.75, spread 0.5. */
+    assert_true(fabs(evaluate_r2(half, truth, 6, mean) - 0.75) < 1e-12);
+    assert_true(fabs(evaluate_spread(half, truth, 6) - 0.5) < 1e-12);
+    assert_true(evaluate_spread(constant, truth, 6) == 0.0);
+    assert_true(fabs(evaluate_spread(truth, truth, 6) - 1.0) < 1e-12);
+    assert_true(isnan(evaluate_r2(truth, constant, 6, mean))); /* SST = 0 */
+    assert_true(isnan(evaluate_spread(truth, constant, 6)));
+    assert_true(isnan(evaluate_spread(truth, truth, 0)));
+}
+
+/* The shared sheet font: every letter, digit and sign in the label alphabet draws some
+ * dots, and a space draws none (only the dark box). */
+static void test_sheet_label(void **state)
+{
+    (void)state;
+    const char *alphabet = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-._/+%";
+    image sheet;
+    assert_int_equal(image_alloc(&sheet, 16, 16, 3), 0);
+    for (const char *p = alphabet; *p; p++) {
+        char text[2] = {*p, 0};
+        for (int i = 0; i < 16 * 16 * 3; i++)
+            sheet.pixels[i] = 0.5f;
+        pipeline_sheet_label(&sheet, 1, 1, text, 1);
+        int lit = 0, dark = 0;
+        for (int i = 0; i < 16 * 16 * 3; i++) {
+            lit += sheet.pixels[i] == 1.0f;
+            dark += sheet.pixels[i] == 0.0f;
+        }
+        assert_true(lit > 0);
+        assert_int_equal(lit + dark, 5 * 7 * 3); /* the box: (4 n + 1) x 7 */
+    }
+    for (int i = 0; i < 16 * 16 * 3; i++)
+        sheet.pixels[i] = 0.5f;
+    pipeline_sheet_label(&sheet, 10, 10, "  ", 2); /* clipped at the edge, no dots */
+    int lit = 0;
+    for (int i = 0; i < 16 * 16 * 3; i++)
+        lit += sheet.pixels[i] == 1.0f;
+    assert_int_equal(lit, 0);
+    assert_true(sheet.pixels[(15 * 16 + 15) * 3] == 0.0f);
+    image_free(&sheet);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_gram_distance),  cmocka_unit_test(test_colour_distance),
+        cmocka_unit_test(test_floor_epsilon),  cmocka_unit_test(test_quantiles),
+        cmocka_unit_test(test_r2_and_spread),  cmocka_unit_test(test_sheet_label),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
