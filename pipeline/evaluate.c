@@ -83,7 +83,9 @@ typedef struct input {
     uint8_t *active;
     float *stored_desc; /* the row's descriptor when the model reads it as stored */
     image img;          /* the input image */
-    image floor_img;    /* hand-made: the shifted render the floor compares against */
+    image floor_img;    /* hand-made: the shifted render the floor compares against... */
+    image floor_ref;    /* ...and what with, when not the input itself (a flash input
+                           without its own shifted render takes its plain pair's floor) */
     char floor_source[64];
     int sheet_row; /* row on its contact sheet, or -1 */
 } input;
@@ -110,6 +112,7 @@ static void input_clear(input *in)
     free(in->stored_desc);
     image_free(&in->img);
     image_free(&in->floor_img);
+    image_free(&in->floor_ref);
     memset(in, 0, sizeof *in);
 }
 
@@ -276,17 +279,25 @@ static int describe(worker *w, int k, const image *img, float **slot, char *err,
     return pipeline_descriptor_compute(w->desc[k], img, *slot, err, errlen);
 }
 
+/* The three distances between images a and b, their descriptors computed into the
+ * slots when missing. */
+static int pair_distances(worker *w, const image *a, float *desc_a[2], const image *b,
+                          float *desc_b[2], double out[N_DIST], char *err, size_t errlen)
+{
+    for (int k = 0; k < 2; k++) {
+        if (describe(w, k, a, &desc_a[k], err, errlen) ||
+            describe(w, k, b, &desc_b[k], err, errlen))
+            return -1;
+        out[k] = evaluate_gram_distance(desc_a[k], desc_b[k], w->offsets[k], w->n_layers[k]);
+    }
+    return evaluate_colour_distance(a, b, &out[DIST_COLOUR], err, errlen);
+}
+
 /* The three distances between the input and an image whose descriptors are desc[]. */
 static int distances(input_work *iw, const image *img, float *desc[2], double out[N_DIST],
                      char *err, size_t errlen)
 {
-    worker *w = iw->w;
-    for (int k = 0; k < 2; k++) {
-        if (describe(w, k, img, &desc[k], err, errlen))
-            return -1;
-        out[k] = evaluate_gram_distance(iw->in_desc[k], desc[k], w->offsets[k], w->n_layers[k]);
-    }
-    return evaluate_colour_distance(&iw->in->img, img, &out[DIST_COLOUR], err, errlen);
+    return pair_distances(iw->w, &iw->in->img, iw->in_desc, img, desc, out, err, errlen);
 }
 
 /* ---------------------------------------------------------------- methods ---------- */
@@ -432,7 +443,11 @@ static int evaluate_input(worker *w, const input *in, result *r)
         floor_img = &floor_render;
     } else if (rc == 0)
         floor_img = &in->floor_img;
-    if (rc == 0)
+    float *ref_desc[2] = {NULL, NULL};
+    if (rc == 0 && in->floor_ref.pixels)
+        rc = pair_distances(w, &in->floor_ref, ref_desc, floor_img, floor_desc, r->floor, err,
+                            errlen);
+    else if (rc == 0)
         rc = distances(&iw, floor_img, floor_desc, r->floor, err, errlen);
     if (rc == 0 && in->sheet_row >= 0 &&
         (tile_of(sh, &in->img, &r->tiles[0]) || tile_of(sh, floor_img, &r->tiles[N_METHODS + 1])))
@@ -444,6 +459,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
     image_free(&floor_render);
     for (int k = 0; k < 2; k++) {
         free(floor_desc[k]);
+        free(ref_desc[k]);
         free(iw.in_desc[k]);
     }
     for (int i = 0; i < iw.n_cands; i++) {
@@ -507,6 +523,53 @@ static int worker_init(worker *w, shared *sh, char *err, size_t errlen)
         w->desc_size[k] = pipeline_descriptor_size(w->desc[k]);
     }
     return 0;
+}
+
+typedef struct worker_init_job {
+    worker *w;
+    shared *sh;
+    int rc;
+    char err[768];
+} worker_init_job;
+
+static void *worker_init_main(void *arg)
+{
+    worker_init_job *j = arg;
+    j->rc = worker_init(j->w, j->sh, j->err, sizeof j->err);
+    return NULL;
+}
+
+/* Every worker's graph and networks, made in parallel: VGG19's random weights take seconds
+ * each (He-normal draws). On error every worker is still safe to free. */
+static int workers_init(worker *workers, int n, shared *sh, char *err, size_t errlen)
+{
+    worker_init_job *jobs = calloc((size_t)n, sizeof *jobs);
+    pthread_t *tid = calloc((size_t)n, sizeof *tid);
+    int *started = calloc((size_t)n, sizeof *started);
+    if (!jobs || !tid || !started) {
+        free(jobs);
+        free(tid);
+        free(started);
+        return pipeline_error(err, errlen, "out of memory");
+    }
+    for (int t = 0; t < n; t++) {
+        jobs[t] = (worker_init_job){.w = &workers[t], .sh = sh};
+        started[t] = t > 0 && pthread_create(&tid[t], NULL, worker_init_main, &jobs[t]) == 0;
+    }
+    for (int t = 0; t < n; t++)
+        if (!started[t])
+            worker_init_main(&jobs[t]); /* the caller's share, or a thread that did not start */
+    int rc = 0;
+    for (int t = 0; t < n; t++) {
+        if (started[t])
+            pthread_join(tid[t], NULL);
+        if (jobs[t].rc && !rc)
+            rc = pipeline_error(err, errlen, "%s", jobs[t].err);
+    }
+    free(jobs);
+    free(tid);
+    free(started);
+    return rc;
 }
 
 static void worker_free(worker *w)
@@ -750,7 +813,8 @@ static int make_targets(const report_ctx *c, target *t, int max)
                 k = j;
         if (k < 0)
             continue;
-        param_figures f = param_summary(c->rs, SET_SYNTHETIC, pred, k, 9, c->majority_bin[k],
+        param_figures f = param_summary(c->rs, SET_SYNTHETIC, pred, k,
+                                        sg_param_mult_choices(pattern_selectors[p]), c->majority_bin[k],
                                         c->sh->mean[k], np);
         snprintf(t[n].what, sizeof t[n].what, "%s: accuracy / majority-class rate",
                  pattern_selectors[p]);
@@ -1297,6 +1361,15 @@ static int check_image(const char *path, const image *img, const shared *sh, cha
     return 0;
 }
 
+static int image_copy(image *dst, const image *src)
+{
+    if (image_alloc(dst, src->width, src->height, src->channels))
+        return -1;
+    memcpy(dst->pixels, src->pixels,
+           (size_t)src->width * (size_t)src->height * (size_t)src->channels * sizeof(float));
+    return 0;
+}
+
 static int cmp_str(const void *a, const void *b)
 {
     return strcmp(*(char *const *)a, *(char *const *)b);
@@ -1393,12 +1466,8 @@ static int load_handmade(const char *dir, const shared *sh, input **out, int *n_
                      own_flash_floor ? "flash-shifted.exr" : "render.exr vs shifted.exr");
             if (own_flash_floor)
                 fl->floor_img = flash_shifted;
-            else if (image_alloc(&fl->floor_img, img[1].width, img[1].height, img[1].channels))
+            else if (image_copy(&fl->floor_ref, &img[0]) || image_copy(&fl->floor_img, &img[1]))
                 rc = pipeline_error(err, errlen, "out of memory");
-            else /* the plain pair's floor: the flash input is compared with the plain shift */
-                memcpy(fl->floor_img.pixels, img[1].pixels,
-                       (size_t)img[1].width * (size_t)img[1].height * (size_t)img[1].channels *
-                           sizeof(float));
         }
         (*materials)++;
     }
@@ -1591,11 +1660,11 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    for (; n_workers < threads; n_workers++)
-        if (worker_init(&workers[n_workers], &sh, err, errlen)) {
-            n_workers++;
-            goto done;
-        }
+    if (workers_init(workers, threads, &sh, err, errlen)) {
+        n_workers = threads;
+        goto done;
+    }
+    n_workers = threads;
     if (!rc_ctx.stored_used && predictor_descriptor_size(sh.pred) != workers[0].desc_size[sh.train]) {
         pipeline_error(err, errlen, "model %s reads %zu descriptor values, not the whole %s "
                                     "descriptor (%zu): give a test set made with its config",
@@ -1655,7 +1724,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
                 in->stored_desc = malloc(info.descriptor_size * sizeof(float));
             if (!in->view_json || !in->params || !in->active ||
                 (rc_ctx.stored_used && !in->stored_desc) ||
-                image_alloc(&in->img, row.img.width, row.img.height, row.img.channels)) {
+                image_copy(&in->img, &row.img)) {
                 n++;
                 pipeline_error(err, errlen, "out of memory");
                 goto done;
@@ -1664,9 +1733,6 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
             memcpy(in->active, row.active, np);
             if (in->stored_desc)
                 memcpy(in->stored_desc, row.descriptor, info.descriptor_size * sizeof(float));
-            memcpy(in->img.pixels, row.img.pixels,
-                   (size_t)row.img.width * (size_t)row.img.height * (size_t)row.img.channels *
-                       sizeof(float));
             char where[300];
             snprintf(where, sizeof where, "%s: id %lld view %d", o->test_path, row.id, row.view);
             if (check_image(where, &in->img, &sh, err, errlen)) {
