@@ -27,6 +27,8 @@ int cmd_dataset(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_infer(int argc, char **argv);
 int cmd_forest(int argc, char **argv);
+int cmd_fit_predictor(int argc, char **argv);
+int cmd_predict_params(int argc, char **argv);
 
 /* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
  * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in
@@ -57,6 +59,12 @@ int cli_write_material(const char *sub, int argc, char **argv, bool export_mode)
 
 /* Prints "imsynth <sub>: <message>" to stderr. */
 void cli_error(const char *sub, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Option values: an integer in [lo, hi] / a finite number in [lo, hi]; -1 after printing
+ * "imsynth <sub>: <opt>: expected ..." (a usage error). */
+int cli_parse_ll(const char *sub, const char *opt, const char *s, long long lo, long long hi,
+                 long long *out);
+int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,
+                     double *out);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);
 

@@ -1,4 +1,7 @@
 /* imsynth train: fit an MLP with heads to X -> Y (.npy), write a safetensors checkpoint. */
+/* before cblas.h, whose complex.h defines I (a field name in shadergraph.h) */
+#include "pipeline/pipeline.h"
+
 #include <cblas.h>
 #include <errno.h>
 #include <math.h>
@@ -113,88 +116,6 @@ static double now_seconds(void)
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* The loss curve as a small SVG line chart: log-scale training loss over steps (blue),
- * validation losses as red dots, min/max labels; written through a temporary file. */
-static int write_loss_svg(const char *path, const double *loss, const double *val, long long n,
-                          char *err, size_t errlen)
-{
-    char tmp[1100];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
-        snprintf(err, errlen, "%.100s...: path too long", path);
-        return -1;
-    }
-    FILE *f = fopen(tmp, "w");
-    if (!f) {
-        snprintf(err, errlen, "%s: %s", tmp, strerror(errno));
-        return -1;
-    }
-    const double W = 640, H = 360, L = 70, R = 20, T = 20, Bm = 40;
-    double lo = INFINITY, hi = -INFINITY;
-    for (long long i = 0; i < n; i++)
-        for (int k = 0; k < 2; k++) {
-            double v = k ? val[i] : loss[i];
-            if (v > 0 && isfinite(v)) {
-                lo = fmin(lo, v);
-                hi = fmax(hi, v);
-            }
-        }
-    if (!(lo <= hi)) {
-        lo = 1e-3;
-        hi = 1;
-    }
-    double llo = log10(lo), lhi = log10(hi);
-    if (lhi - llo < 1e-6)
-        lhi = llo + 1;
-    fprintf(f,
-            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%g\" height=\"%g\" "
-            "font-family=\"sans-serif\" font-size=\"12\">\n"
-            "<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n"
-            "<rect x=\"%g\" y=\"%g\" width=\"%g\" height=\"%g\" fill=\"none\" stroke=\"#888\"/>\n",
-            W, H, L, T, W - L - R, H - T - Bm);
-    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%.4g</text>\n", L - 4, T + 10, hi);
-    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%.4g</text>\n", L - 4, H - Bm, lo);
-    fprintf(f, "<text x=\"%g\" y=\"%g\">0</text>\n", L, H - Bm + 16);
-    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%lld</text>\n", W - R, H - Bm + 16,
-            n);
-    fprintf(f,
-            "<text x=\"%g\" y=\"%g\" text-anchor=\"middle\">step (training loss, log scale; "
-            "red: validation)</text>\n",
-            (W + L - R) / 2, H - 8);
-    fprintf(f, "<polyline fill=\"none\" stroke=\"#1f77b4\" stroke-width=\"1.2\" points=\"");
-    // at most ~2000 points: the mean loss of each chunk of steps
-    long long stride = n > 2000 ? (n + 1999) / 2000 : 1;
-    for (long long i = 0; i < n; i += stride) {
-        double s = 0;
-        long long k = 0;
-        for (long long j = i; j < i + stride && j < n; j++, k++)
-            s += loss[j];
-        double v = s / (double)k;
-        double x = L + (W - L - R) * ((double)i + 0.5 * (double)(k - 1)) /
-                           (double)(n > 1 ? n - 1 : 1);
-        double y = v > 0 && isfinite(v) ? T + (H - T - Bm) * (lhi - log10(v)) / (lhi - llo)
-                                        : H - Bm;
-        fprintf(f, "%.1f,%.1f ", x, y);
-    }
-    fprintf(f, "\"/>\n");
-    for (long long i = 0; i < n; i++)
-        if (val[i] > 0 && isfinite(val[i]))
-            fprintf(f, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.5\" fill=\"#d62728\"/>\n",
-                    L + (W - L - R) * (double)i / (double)(n > 1 ? n - 1 : 1),
-                    T + (H - T - Bm) * (lhi - log10(val[i])) / (lhi - llo));
-    fprintf(f, "</svg>\n");
-    if (fclose(f)) {
-        snprintf(err, errlen, "%s: write error", tmp);
-        remove(tmp);
-        return -1;
-    }
-    if (rename(tmp, path)) {
-        snprintf(err, errlen, "%s: %s", path, strerror(errno));
-        remove(tmp);
-        return -1;
-    }
-    return 0;
 }
 
 static int write_loss_csv(const char *path, const double *loss, const float *lr,
@@ -606,7 +527,7 @@ int cmd_train(int argc, char **argv)
             snprintf(svg, sizeof svg, "%s.svg", log_path);
         if (write_loss_csv(log_path, losses, lrs, val_losses, first_step, run, n, (int)batch,
                            err, sizeof err) ||
-            write_loss_svg(svg, losses, val_losses, run, err, sizeof err)) {
+            pipeline_write_loss_svg(svg, losses, val_losses, run, "step", err, sizeof err)) {
             cli_error(sub, "%s", err);
             goto done;
         }

@@ -1,4 +1,6 @@
 /* imsynth: dispatch to one subcommand. */
+#include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,6 +28,8 @@ static const subcommand subcommands[] = {
     {"train", cmd_train, "train an MLP with heads on X.npy -> Y.npy (safetensors checkpoint)"},
     {"infer", cmd_infer, "predictions of a trained model for X.npy, as .npy"},
     {"forest", cmd_forest, "fit a multi-output random forest, rank features, predict (.npy)"},
+    {"fit-predictor", cmd_fit_predictor, "train the parameter predictor on a dataset (model dir)"},
+    {"predict-params", cmd_predict_params, "super-shader parameters for an image (top-k, JSON)"},
 };
 
 void cli_error(const char *sub, const char *fmt, ...)
@@ -36,6 +40,33 @@ void cli_error(const char *sub, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
     va_end(ap);
+}
+
+int cli_parse_ll(const char *sub, const char *opt, const char *s, long long lo, long long hi,
+                 long long *out)
+{
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (errno || *end || !*s || v < lo || v > hi) {
+        cli_error(sub, "%s: expected an integer in [%lld, %lld], got \"%s\"", opt, lo, hi, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,
+                     double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (*end || !*s || !isfinite(v) || v < lo || v > hi) {
+        cli_error(sub, "%s: expected a number in [%g, %g], got \"%s\"", opt, lo, hi, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
 }
 
 int cli_wants_help(int argc, char **argv)

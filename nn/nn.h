@@ -588,6 +588,22 @@ void nn_gather_rows(float *dst, const float *src, size_t cols, const size_t *row
 void nn_step_batch(long long step, size_t n_rows, int batch, long long *epoch, size_t *first,
                    int *count);
 
+/* ---------------------------------------------------------------- PCA -------------- */
+
+/* The k leading principal components of the rows of X (n, d), which the caller has
+ * centred (each column mean 0), by randomized SVD: a Gaussian test matrix of k + 16
+ * columns from seed, power_iters power iterations (2 is plenty for decaying spectra),
+ * then the exact SVD of the projected problem. components (k, d): orthonormal rows,
+ * largest variance first, each signed so its largest |entry| is positive; variance (k):
+ * X's variance along each (eigenvalue / (n - 1)). Bit-identical for any thread count.
+ * Returns 0, or -1 with a message (k > min(n, d), out of memory). */
+int nn_pca_fit(const float *X, int n, int d, int k, int power_iters, uint64_t seed, int threads,
+               float *components, float *variance, char *err, size_t errlen);
+/* out (n, k) = X (n, d) . components^T, divided by sqrt(variance) per component when
+ * whiten (a component of variance 0 gives 0). */
+void nn_pca_transform(float *out, const float *X, const float *components,
+                      const float *variance, int n, int d, int k, int whiten, int threads);
+
 /* ---------------------------------------------------------------- checkpoints ------ */
 
 /* Tensor writer: n tensors (F32, shapes up to 2-D) and string metadata pairs into a

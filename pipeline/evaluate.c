@@ -691,13 +691,13 @@ static dist_summary summarise(const records *rs, input_set set, int m, int d)
     return s;
 }
 
-typedef enum param_role { ROLE_SELECTOR, ROLE_VALUE, ROLE_OFFSET } param_role;
-
-static param_role role_of(const char *name)
+/* A parameter's role, as the predictor's (pipeline_internal.h): ROLE_SELECTOR, ROLE_SEED
+ * ("Pattern Offset") or ROLE_VALUE. */
+static int role_of(const char *name)
 {
     if (sg_param_mult_choices(name) >= 2)
         return ROLE_SELECTOR;
-    return strcmp(name, "Pattern Offset") ? ROLE_VALUE : ROLE_OFFSET;
+    return strcmp(name, "Pattern Offset") ? ROLE_VALUE : ROLE_SEED;
 }
 
 static int bin_of(float v, int choices)
@@ -997,8 +997,8 @@ static cJSON *report_json(const report_ctx *c)
             cJSON *sel = cJSON_AddArrayToObject(mo, "selectors");
             cJSON *val = cJSON_AddArrayToObject(mo, "values");
             for (size_t k = 0; k < np; k++) {
-                param_role role = role_of(sh->names[k]);
-                if (role == ROLE_OFFSET)
+                int role = role_of(sh->names[k]);
+                if (role == ROLE_SEED)
                     continue;
                 int choices = role == ROLE_SELECTOR ? sg_param_mult_choices(sh->names[k]) : 0;
                 param_figures f = param_summary(c->rs, (input_set)s, m, (int)k, choices,
@@ -1113,8 +1113,8 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
             sp[m] = malloc(np * sizeof(double));
         }
         for (size_t k = 0; k < np; k++) {
-            param_role role = role_of(sh->names[k]);
-            if (role == ROLE_OFFSET)
+            int role = role_of(sh->names[k]);
+            if (role == ROLE_SEED)
                 continue;
             int choices = role == ROLE_SELECTOR ? sg_param_mult_choices(sh->names[k]) : 0;
             size_t rows = 0;
@@ -1562,7 +1562,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     }
     sh.offset_param = -1;
     for (int k = 0; k < sh.n_params; k++)
-        if (role_of(sh.names[k]) == ROLE_OFFSET)
+        if (role_of(sh.names[k]) == ROLE_SEED)
             sh.offset_param = k;
     rc_ctx.model_config = predictor_dataset_config(sh.pred);
     model_cfg = cJSON_Parse(rc_ctx.model_config ? rc_ctx.model_config : "");

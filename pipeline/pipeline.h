@@ -248,6 +248,21 @@ int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen);
 int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols, int tile,
                           char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- user images ------ */
+
+/* An image as the training renders were: its largest centred square (a photo's sides are
+ * cropped, not squeezed), resampled to size x size (the scene's 256: area-correct when
+ * shrinking, bilinear when enlarging). out is allocated. Returns 0, or -1 with a message. */
+int pipeline_prepare_input(const image *in, int size, image *out, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- loss curves ------ */
+
+/* A training run's loss curve as a small SVG line chart: log-scale training loss over n
+ * points (steps or epochs, named by xlabel; blue), validation losses (NaN or <= 0 where
+ * absent) as red dots, min/max labels; written through a temporary file. */
+int pipeline_write_loss_svg(const char *path, const double *loss, const double *val, long long n,
+                            const char *xlabel, char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- predictor -------- */
 /*
  * A model directory, written by predictor_fit (`imsynth fit-predictor`):
@@ -255,10 +270,13 @@ int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols,
  *                            dataset's config (super-shader, scene, preset, descriptor),
  *                            parameter names and roles, the input transform, the network,
  *                            the training settings and its figures
- *   predictor.safetensors    the input transform (feature choice, signed-log statistics,
- *                            PCA basis) and the network's weights
- *   catalogue.safetensors    the training samples' reduced descriptors, parameters, active
- *                            masks and ids: nearest-neighbour retrieval and baselines
+ *   transform.safetensors    the input transform (signed-log scales, standardisation,
+ *                            PCA basis and variances) and the training mean parameters
+ *   network.safetensors      the MLP (an nn checkpoint: arch and heads in its metadata)
+ *   catalogue.safetensors    the training samples' reduced descriptors, parameters and
+ *                            ids: nearest-neighbour retrieval and baselines
+ *   losses.csv, loss.svg     the training curve (per epoch: losses, validation accuracy
+ *                            of the selectors, median R^2 of the values)
  * Parameter roles: a "Mult N" selector is a classification (a softmax head of N classes);
  * "Pattern Offset" moves the pattern like a seed and is not a target (a prediction carries
  * the training mean); every other parameter is a value regressed where it is active.
@@ -301,6 +319,42 @@ int predictor_predict(predictor *p, const float *descriptor, int k, float *param
  * be NULL). Returns the number written, or -1 with a message. */
 int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *index,
                       double *dist, char *err, size_t errlen);
+
+/* Training (predictor_fit.c). The run is resumable: it lives in OUT.partial/ (checkpoint
+ * after every epoch) and the same call continues it, to the same bytes as an uninterrupted
+ * run; OUT appears complete, by one rename, or not at all. */
+typedef struct predictor_fit_result {
+    int best_epoch;
+    double best_val_loss, mean_selector_accuracy, median_value_r2, seconds;
+    size_t train_rows, val_rows;
+} predictor_fit_result;
+
+typedef struct predictor_fit_options {
+    const char *dataset_path;
+    const char *val_dataset_path; /* NULL: hold out val_fraction of the ids (by a hash) */
+    double val_fraction;
+    long long max_ids;            /* 0: every sample; else the first max_ids ids */
+    const char *out_dir;          /* must not exist */
+    int components;               /* PCA components (the network's inputs) */
+    const char *hidden;           /* hidden widths, "512-512" */
+    int epochs, batch;
+    float lr, weight_decay, dropout;
+    float value_weight;           /* the value head's loss weight (selectors' sum to 1) */
+    uint64_t seed;
+    int threads;                  /* 0 = 1; never changes a bit */
+    int restart;                  /* discard an unfinished run with other settings */
+    void (*progress)(void *ctx, int epoch, int epochs, double train_loss, double val_loss,
+                     double val_selector_accuracy, double val_median_r2, double seconds);
+    void (*progress_text)(void *ctx, const char *what);
+    void *progress_ctx;
+    volatile int *stop;           /* non-zero: stop after the current epoch (resumable) */
+    predictor_fit_result *result; /* may be NULL */
+} predictor_fit_options;
+
+void predictor_fit_defaults(predictor_fit_options *o);
+/* Returns 0 (OUT written), 1 (stopped through `stop`; rerun to continue) or -1 with a
+ * message. */
+int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen);
 
 /* ---------------------------------------------------------------- evaluation ------- */
 /*

@@ -5,6 +5,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "nn/nn.h"
 #include "pipeline/pipeline.h"
 
 /* Formats a message into err (if not NULL); returns -1 for chaining. */
@@ -27,6 +28,45 @@ typedef struct sha256_ctx {
 void sha256_init(sha256_ctx *c);
 void sha256_update(sha256_ctx *c, const void *data, size_t len);
 void sha256_final_hex(sha256_ctx *c, char out[65]);
+
+/* ---------------------------------------------------------------- predictor -------- */
+/* Shared by predictor.c (loading, prediction) and predictor_fit.c (training). */
+
+#define MODEL_FORMAT "imsynth-model/1"
+
+enum { ROLE_VALUE, ROLE_SELECTOR, ROLE_SEED };
+
+/* How the parameters map to network outputs: values first (one sigmoid head), then one
+ * softmax head per selector, in parameter order. */
+typedef struct param_layout {
+    int n_params, n_values, n_selectors;
+    int role[NN_MAX_HEADS * 2];
+    int classes[NN_MAX_HEADS * 2]; /* selectors */
+    int column[NN_MAX_HEADS * 2];  /* Y column: value index, or n_values + selector index */
+} param_layout;
+
+/* Roles from the names ("Mult N ..." selectors, "Pattern Offset" the seed, values). */
+int predictor_layout_make(param_layout *L, const char *const *names, int n, char *err,
+                          size_t errlen);
+/* The network's heads (one sigmoid head of the values, weighted value_weight; a softmax
+ * head per selector, weighted 1/n_selectors); returns their count. */
+int predictor_layout_heads(const param_layout *L, nn_head *heads, float value_weight);
+int predictor_layout_outputs(const param_layout *L);
+/* A sample's Y and mask row (n_values + n_selectors columns): values, selector classes;
+ * mask = active. */
+void predictor_layout_targets(const param_layout *L, const float *params, const uint8_t *active,
+                              float *y, float *m);
+/* x (d) in place: sign(x) log1p(|x| / scale), then (t - mean) / std. */
+void predictor_transform_row(float *x, size_t d, const float *scale, const float *mean,
+                             const float *std);
+/* Fits scale (mean |x|), mean and std over X (n, d) and transforms X in place. */
+int predictor_transform_fit(float *X, size_t n, size_t d, float *scale, float *mean, float *std);
+/* Tensor `name` of exactly count floats, every one finite. */
+int predictor_read_tensor(const nn_safetensors *st, const char *name, float *out, size_t count,
+                          char *err, size_t errlen);
+int predictor_write_text(const char *path, const char *text, char *err, size_t errlen);
+int predictor_path_join(char *out, size_t len, const char *dir, const char *name, char *err,
+                        size_t errlen);
 
 /* A dataset view's settings (datagen.c; stored as a row's view_json): which scene, where
  * its light is, exposure, white balance and the texture space's transform. */

@@ -1,5 +1,6 @@
 /* Small helpers shared inside pipeline/. */
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -64,4 +65,84 @@ char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen
     if (len)
         *len = n;
     return buf;
+}
+
+int pipeline_write_loss_svg(const char *path, const double *loss, const double *val, long long n,
+                            const char *xlabel, char *err, size_t errlen)
+{
+    char tmp[1100];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
+        snprintf(err, errlen, "%.100s...: path too long", path);
+        return -1;
+    }
+    FILE *f = fopen(tmp, "w");
+    if (!f) {
+        snprintf(err, errlen, "%s: %s", tmp, strerror(errno));
+        return -1;
+    }
+    const double W = 640, H = 360, L = 70, R = 20, T = 20, Bm = 40;
+    double lo = INFINITY, hi = -INFINITY;
+    for (long long i = 0; i < n; i++)
+        for (int k = 0; k < 2; k++) {
+            double v = k ? val[i] : loss[i];
+            if (v > 0 && isfinite(v)) {
+                lo = fmin(lo, v);
+                hi = fmax(hi, v);
+            }
+        }
+    if (!(lo <= hi)) {
+        lo = 1e-3;
+        hi = 1;
+    }
+    double llo = log10(lo), lhi = log10(hi);
+    if (lhi - llo < 1e-6)
+        lhi = llo + 1;
+    fprintf(f,
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%g\" height=\"%g\" "
+            "font-family=\"sans-serif\" font-size=\"12\">\n"
+            "<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n"
+            "<rect x=\"%g\" y=\"%g\" width=\"%g\" height=\"%g\" fill=\"none\" stroke=\"#888\"/>\n",
+            W, H, L, T, W - L - R, H - T - Bm);
+    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%.4g</text>\n", L - 4, T + 10, hi);
+    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%.4g</text>\n", L - 4, H - Bm, lo);
+    fprintf(f, "<text x=\"%g\" y=\"%g\">0</text>\n", L, H - Bm + 16);
+    fprintf(f, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%lld</text>\n", W - R, H - Bm + 16,
+            n);
+    fprintf(f,
+            "<text x=\"%g\" y=\"%g\" text-anchor=\"middle\">%s (training loss, log scale; "
+            "red: validation)</text>\n",
+            (W + L - R) / 2, H - 8, xlabel);
+    fprintf(f, "<polyline fill=\"none\" stroke=\"#1f77b4\" stroke-width=\"1.2\" points=\"");
+    // at most ~2000 points: the mean loss of each chunk of steps
+    long long stride = n > 2000 ? (n + 1999) / 2000 : 1;
+    for (long long i = 0; i < n; i += stride) {
+        double s = 0;
+        long long k = 0;
+        for (long long j = i; j < i + stride && j < n; j++, k++)
+            s += loss[j];
+        double v = s / (double)k;
+        double x = L + (W - L - R) * ((double)i + 0.5 * (double)(k - 1)) /
+                           (double)(n > 1 ? n - 1 : 1);
+        double y = v > 0 && isfinite(v) ? T + (H - T - Bm) * (lhi - log10(v)) / (lhi - llo)
+                                        : H - Bm;
+        fprintf(f, "%.1f,%.1f ", x, y);
+    }
+    fprintf(f, "\"/>\n");
+    for (long long i = 0; i < n; i++)
+        if (val[i] > 0 && isfinite(val[i]))
+            fprintf(f, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.5\" fill=\"#d62728\"/>\n",
+                    L + (W - L - R) * (double)i / (double)(n > 1 ? n - 1 : 1),
+                    T + (H - T - Bm) * (lhi - log10(val[i])) / (lhi - llo));
+    fprintf(f, "</svg>\n");
+    if (fclose(f)) {
+        snprintf(err, errlen, "%s: write error", tmp);
+        remove(tmp);
+        return -1;
+    }
+    if (rename(tmp, path)) {
+        snprintf(err, errlen, "%s: %s", path, strerror(errno));
+        remove(tmp);
+        return -1;
+    }
+    return 0;
 }

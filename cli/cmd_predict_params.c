@@ -1,0 +1,193 @@
+/* imsynth predict-params: the super-shader parameters a trained predictor gives an image. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/cli.h"
+#include "pipeline/pipeline.h"
+
+static const char *const help =
+    "usage: imsynth predict-params IMAGE --model MODEL_DIR [-o PARAMS.json] [options]\n"
+    "\n"
+    "Describes IMAGE (PNG, JPEG, TIFF, EXR; its largest centred square resampled to the\n"
+    "scene's 256 x 256, as the training renders were) with the model's descriptor and\n"
+    "writes the predicted super-shader parameters as a parameter file (the format of\n"
+    "`imsynth sample`, read by `render --params`, `extract`, `export`): the selectors'\n"
+    "likeliest combination with the predicted values; Pattern Offset is the training mean.\n"
+    "\n"
+    "options:\n"
+    "  --model MODEL_DIR      from `imsynth fit-predictor` (required)\n"
+    "  -o, --output P.json    the top hypothesis (default: stdout)\n"
+    "  --top-k K              also consider the K likeliest selector combinations\n"
+    "  --hypotheses H.json    write all K as {\"hypotheses\": [{\"probability\": p,\n"
+    "                         \"params\": {...}}, ...]}, likeliest first\n"
+    "  --nearest N            also list the N nearest training samples (id, distance) in\n"
+    "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n";
+
+static cJSON *params_object(const char *const *names, const float *v, int n)
+{
+    cJSON *o = cJSON_CreateObject();
+    for (int i = 0; i < n; i++)
+        cJSON_AddItemToObject(o, names[i], cJSON_CreateNumber((double)v[i]));
+    return o;
+}
+
+static int write_json_atomic(const char *path, cJSON *j, char *err, size_t errlen)
+{
+    char *text = cJSON_Print(j);
+    if (!text) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    char tmp[1100];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *f = fopen(tmp, "w");
+    int bad = !f || fputs(text, f) < 0 || fputc('\n', f) < 0;
+    if (f)
+        bad |= fclose(f) != 0;
+    free(text);
+    if (bad || rename(tmp, path)) {
+        remove(tmp);
+        snprintf(err, errlen, "%s: cannot write", path);
+        return -1;
+    }
+    return 0;
+}
+
+int cmd_predict_params(int argc, char **argv)
+{
+    const char *sub = "predict-params";
+    if (cli_wants_help(argc, argv)) {
+        fputs(help, stdout);
+        return EXIT_OK;
+    }
+    const char *image_path = NULL, *model_dir = NULL, *out = NULL, *hyp_path = NULL;
+    long long top_k = 1, nearest = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (a[0] != '-') {
+            if (image_path) {
+                cli_error(sub, "one IMAGE only (got \"%s\" and \"%s\")", image_path, a);
+                return EXIT_USAGE;
+            }
+            image_path = a;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            cli_error(sub, "%s needs a value (see --help)", a);
+            return EXIT_USAGE;
+        }
+        const char *v = argv[++i];
+        if (!strcmp(a, "--model"))
+            model_dir = v;
+        else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
+            out = v;
+        else if (!strcmp(a, "--hypotheses"))
+            hyp_path = v;
+        else if (!strcmp(a, "--top-k")) {
+            if (cli_parse_ll(sub, a, v, 1, 4096, &top_k))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--nearest")) {
+            if (cli_parse_ll(sub, a, v, 1, 4096, &nearest))
+                return EXIT_USAGE;
+        } else {
+            cli_error(sub, "unknown option \"%s\" (see --help)", a);
+            return EXIT_USAGE;
+        }
+    }
+    if (!image_path || !model_dir) {
+        cli_error(sub, "need IMAGE and --model MODEL_DIR (see --help)");
+        return EXIT_USAGE;
+    }
+    char err[1024];
+    int rc = EXIT_FAILURE_WORK;
+    image img = {0}, prepared = {0};
+    float *desc = NULL, *params = NULL;
+    double *prob = NULL, *dist = NULL;
+    size_t *index = NULL;
+    pipeline_descriptor *pd = NULL;
+    cJSON *hyp = NULL;
+    predictor *p = predictor_load(model_dir, err, sizeof err);
+    if (!p)
+        goto fail;
+    if (image_read(image_path, &img, err, sizeof err) ||
+        pipeline_prepare_input(&img, 256, &prepared, err, sizeof err))
+        goto fail;
+    if (!(pd = pipeline_descriptor_create(predictor_descriptor_kind(p), err, sizeof err)))
+        goto fail;
+    int np = predictor_n_params(p);
+    desc = malloc(predictor_descriptor_size(p) * sizeof *desc);
+    params = malloc((size_t)top_k * (size_t)np * sizeof *params);
+    prob = malloc((size_t)top_k * sizeof *prob);
+    if (!desc || !params || !prob) {
+        snprintf(err, sizeof err, "out of memory");
+        goto fail;
+    }
+    if (pipeline_descriptor_compute(pd, &prepared, desc, err, sizeof err))
+        goto fail;
+    int got = predictor_predict(p, desc, (int)top_k, params, prob, err, sizeof err);
+    if (got < 0)
+        goto fail;
+    const char *const *names = predictor_param_names(p);
+    cJSON *top = params_object(names, params, np);
+    if (out ? write_json_atomic(out, top, err, sizeof err) : 0) {
+        cJSON_Delete(top);
+        goto fail;
+    }
+    if (!out) {
+        char *text = cJSON_Print(top);
+        if (text)
+            puts(text);
+        free(text);
+    }
+    cJSON_Delete(top);
+    if (hyp_path) {
+        hyp = cJSON_CreateObject();
+        cJSON_AddStringToObject(hyp, "image", image_path);
+        cJSON_AddStringToObject(hyp, "model", model_dir);
+        cJSON *list = cJSON_AddArrayToObject(hyp, "hypotheses");
+        for (int h = 0; h < got; h++) {
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddNumberToObject(e, "probability", prob[h]);
+            cJSON_AddItemToObject(e, "params", params_object(names, params + (size_t)h * np, np));
+            cJSON_AddItemToArray(list, e);
+        }
+        if (nearest) {
+            index = malloc((size_t)nearest * sizeof *index);
+            dist = malloc((size_t)nearest * sizeof *dist);
+            int n = index && dist ? predictor_nearest(p, desc, (int)nearest, index, dist, err,
+                                                      sizeof err)
+                                  : -1;
+            if (n < 0)
+                goto fail;
+            cJSON *nl = cJSON_AddArrayToObject(hyp, "nearest");
+            for (int i = 0; i < n; i++) {
+                long long id;
+                const float *cp = predictor_catalogue_params(p, index[i], &id);
+                cJSON *e = cJSON_CreateObject();
+                cJSON_AddNumberToObject(e, "id", (double)id);
+                cJSON_AddNumberToObject(e, "distance", dist[i]);
+                cJSON_AddItemToObject(e, "params", params_object(names, cp, np));
+                cJSON_AddItemToArray(nl, e);
+            }
+        }
+        if (write_json_atomic(hyp_path, hyp, err, sizeof err))
+            goto fail;
+    }
+    rc = EXIT_OK;
+fail:
+    if (rc != EXIT_OK)
+        cli_error(sub, "%s", err);
+    cJSON_Delete(hyp);
+    image_free(&img);
+    image_free(&prepared);
+    free(desc);
+    free(params);
+    free(prob);
+    free(index);
+    free(dist);
+    pipeline_descriptor_free(pd);
+    predictor_free(p);
+    return rc;
+}

@@ -1,0 +1,908 @@
+/*
+ * Training the predictor (predictor.c says what it is): read a dataset, fit the input
+ * transform and PCA, train the MLP with masked losses, keep the epoch of least validation
+ * loss, write the model directory.
+ *
+ * Storage of a run (SQLite's rule: a reader sees the old state or the new one, never half):
+ *   OUT.partial/transform.safetensors   fitted once; a resumed run reads it back
+ *   OUT.partial/checkpoint-E.safetensors  weights + optimiser after epoch E (the last)
+ *   OUT.partial/best-B.safetensors      weights of the best epoch B so far
+ *   OUT.partial/state.json              the run's settings, epochs done, losses so far
+ * every file written to a temporary name and renamed, the state last: a kill at any moment
+ * leaves a state that names files that exist. The finished model directory is renamed to
+ * OUT in one step.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <dirent.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "pipeline/pipeline_internal.h"
+
+#include <cblas.h> /* after shadergraph.h: its complex.h defines I */
+
+void predictor_fit_defaults(predictor_fit_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->val_fraction = 0.05;
+    o->components = 256;
+    o->hidden = "512-512";
+    o->epochs = 60;
+    o->batch = 128;
+    o->lr = 1e-3f;
+    o->weight_decay = 1e-4f;
+    o->dropout = 0.1f;
+    o->value_weight = 10.0f;
+    o->seed = 1;
+}
+
+/* One side of the split: rows of descriptors, targets and masks. */
+typedef struct rowset {
+    size_t n, cap;
+    float *X;         /* (n, d) descriptors, then their transform */
+    float *params;    /* (n, n_params) */
+    uint8_t *active;  /* (n, n_params) */
+    long long *ids;
+    float *Z;         /* (n, k) reduced inputs */
+    float *Y, *M;     /* (n, yc) targets and masks */
+} rowset;
+
+static void rowset_free(rowset *r)
+{
+    free(r->X);
+    free(r->params);
+    free(r->active);
+    free(r->ids);
+    free(r->Z);
+    free(r->Y);
+    free(r->M);
+    memset(r, 0, sizeof *r);
+}
+
+static int rowset_push(rowset *r, const dataset_row *row, size_t d, int np)
+{
+    if (r->n == r->cap) {
+        size_t cap = r->cap ? r->cap * 2 : 1024;
+        float *X = realloc(r->X, cap * d * sizeof(float));
+        if (X)
+            r->X = X;
+        float *P = realloc(r->params, cap * (size_t)np * sizeof(float));
+        if (P)
+            r->params = P;
+        uint8_t *A = realloc(r->active, cap * (size_t)np);
+        if (A)
+            r->active = A;
+        long long *ids = realloc(r->ids, cap * sizeof(long long));
+        if (ids)
+            r->ids = ids;
+        if (!X || !P || !A || !ids)
+            return -1;
+        r->cap = cap;
+    }
+    memcpy(r->X + r->n * d, row->descriptor, d * sizeof(float));
+    memcpy(r->params + r->n * (size_t)np, row->params, (size_t)np * sizeof(float));
+    memcpy(r->active + r->n * (size_t)np, row->active, (size_t)np);
+    r->ids[r->n++] = row->id;
+    return 0;
+}
+
+/* Whether id is held out for validation: a hash of the id, so every view of a sample lands
+ * on the same side and the split does not depend on the dataset's order or size. */
+static int is_validation_id(long long id, double fraction)
+{
+    return (double)(nn_mix64((uint64_t)id ^ 0x76616c6964617465ull) >> 11) * 0x1p-53 < fraction;
+}
+
+/* Reads a dataset's rows; with fraction >= 0 splits them into train and val by id (else
+ * all into train). Checks the descriptor is stored and every value finite. */
+static int read_rows(const char *path, double fraction, long long max_ids, rowset *train,
+                     rowset *val, size_t *d_out, char ***names_out, int *np_out,
+                     char **config_out, char *err, size_t errlen)
+{
+    dataset *ds = dataset_open(path, err, errlen);
+    if (!ds)
+        return -1;
+    dataset_info info;
+    int rc = -1;
+    dataset_iter *it = NULL;
+    if (dataset_get_info(ds, &info, err, errlen)) {
+        dataset_close(ds);
+        return -1;
+    }
+    if (!info.descriptor_size) {
+        pipeline_error(err, errlen, "%s: the dataset stores no descriptor (made with "
+                                    "--descriptor none: run imsynth dataset describe first)",
+                       path);
+        goto done;
+    }
+    if (*d_out && *d_out != info.descriptor_size) {
+        pipeline_error(err, errlen, "%s: descriptors of %zu values, the training set's have %zu",
+                       path, info.descriptor_size, *d_out);
+        goto done;
+    }
+    *d_out = info.descriptor_size;
+    int np = info.n_params;
+    if (names_out) {
+        const char *const *names = dataset_param_names(ds);
+        char **copy = calloc((size_t)np, sizeof *copy);
+        for (int i = 0; copy && i < np; i++)
+            copy[i] = strdup(names[i]);
+        *names_out = copy;
+        *np_out = np;
+    } else if (np != *np_out) {
+        pipeline_error(err, errlen, "%s: %d parameters, the training set has %d", path, np,
+                       *np_out);
+        goto done;
+    }
+    if (config_out && !(*config_out = strdup(info.config_json))) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    if (!(it = dataset_iter_new(ds, 1, 0, err, errlen)))
+        goto done;
+    dataset_row row;
+    int got;
+    long long ids_seen = 0, last_id = -1;
+    while ((got = dataset_iter_next(it, &row, err, errlen)) == 1) {
+        if (row.id != last_id) {
+            last_id = row.id;
+            if (max_ids > 0 && ++ids_seen > max_ids)
+                break;
+        }
+        for (size_t j = 0; j < info.descriptor_size; j++)
+            if (!isfinite(row.descriptor[j])) {
+                pipeline_error(err, errlen, "%s: id %lld view %d: descriptor value %zu is not "
+                                            "finite",
+                               path, row.id, row.view, j);
+                goto done;
+            }
+        rowset *dst = fraction >= 0 && is_validation_id(row.id, fraction) ? val : train;
+        if (rowset_push(dst, &row, info.descriptor_size, np)) {
+            pipeline_error(err, errlen, "%s: out of memory at row %zu", path,
+                           train->n + (val ? val->n : 0));
+            goto done;
+        }
+    }
+    rc = got < 0 ? -1 : 0;
+done:
+    dataset_iter_free(it);
+    dataset_info_free(&info);
+    dataset_close(ds);
+    return rc;
+}
+
+/* The parts of two dataset configs that must agree for a validation set: the super-shader
+ * and the descriptor (the preset, augmentation and ids may differ). */
+static int configs_compatible(const char *a, const char *b, char *why, size_t len)
+{
+    cJSON *ja = cJSON_Parse(a), *jb = cJSON_Parse(b);
+    int ok = ja && jb;
+    const char *keys[] = {"supershader_sha256", "descriptor", "blender"};
+    for (int i = 0; ok && i < 3; i++) {
+        if (!cJSON_Compare(cJSON_GetObjectItemCaseSensitive(ja, keys[i]),
+                           cJSON_GetObjectItemCaseSensitive(jb, keys[i]), 1)) {
+            snprintf(why, len, "\"%s\" differs", keys[i]);
+            ok = 0;
+        }
+    }
+    cJSON_Delete(ja);
+    cJSON_Delete(jb);
+    return ok;
+}
+
+/* ---------------------------------------------------------------- the run's files -- */
+
+static int mkdir_p1(const char *dir, char *err, size_t errlen)
+{
+    if (mkdir(dir, 0777) && errno != EEXIST)
+        return pipeline_error(err, errlen, "%s: cannot create: %s", dir, strerror(errno));
+    return 0;
+}
+
+/* Removes a run directory and everything in it (files only: a run makes no folders). */
+static void remove_tree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d) {
+        struct dirent *e;
+        char path[1400];
+        while ((e = readdir(d)))
+            if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
+                snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+                unlink(path);
+            }
+        closedir(d);
+    }
+    rmdir(dir);
+}
+
+/* The checkpoint after `epochs` epochs and the best weights as of then carry the epoch in
+ * their names: state.json names the ones it goes with, so a kill between writing them and
+ * writing the state leaves the state's own files untouched. */
+static void run_file(char *out, size_t len, const char *dir, const char *what, int epoch)
+{
+    snprintf(out, len, "%s/%s-%d.safetensors", dir, what, epoch);
+}
+
+static int write_transform(const char *path, const float *scale, const float *mean,
+                           const float *std, const float *comp, const float *var,
+                           const float *mean_params, size_t d, int k, int np, char *err,
+                           size_t errlen)
+{
+    nn_tensor_out t[6] = {
+        {"signed_log.scale", 1, {(int64_t)d}, scale},
+        {"standardise.mean", 1, {(int64_t)d}, mean},
+        {"standardise.std", 1, {(int64_t)d}, std},
+        {"pca.components", 2, {k, (int64_t)d}, comp},
+        {"pca.variance", 1, {k}, var},
+        {"params.mean", 1, {np}, mean_params},
+    };
+    const char *meta[] = {"format", "imsynth-model-transform/1"};
+    return nn_safetensors_write(path, t, 6, meta, 1, err, errlen);
+}
+
+static int write_catalogue(const char *path, const rowset *r, int k, int np, char *err,
+                           size_t errlen)
+{
+    float *lo = malloc((r->n ? r->n : 1) * sizeof(float)),
+          *hi = malloc((r->n ? r->n : 1) * sizeof(float));
+    if (!lo || !hi) {
+        free(lo);
+        free(hi);
+        return pipeline_error(err, errlen, "out of memory");
+    }
+    // ids in two exactly representable floats (safetensors via nn holds F32 only)
+    for (size_t i = 0; i < r->n; i++) {
+        lo[i] = (float)(r->ids[i] & ((1ll << 24) - 1));
+        hi[i] = (float)(r->ids[i] >> 24);
+    }
+    nn_tensor_out t[4] = {
+        {"catalogue.z", 2, {(int64_t)r->n, k}, r->Z},
+        {"catalogue.params", 2, {(int64_t)r->n, np}, r->params},
+        {"catalogue.id_low24", 1, {(int64_t)r->n}, lo},
+        {"catalogue.id_high", 1, {(int64_t)r->n}, hi},
+    };
+    const char *meta[] = {"format", "imsynth-model-catalogue/1"};
+    int rc = nn_safetensors_write(path, t, 4, meta, 1, err, errlen);
+    free(lo);
+    free(hi);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- metrics ---------- */
+
+/* Validation figures of the network on a rowset: per selector the accuracy where active,
+ * per value R^2 where active (SST about the training mean). */
+typedef struct fit_metrics {
+    double selector_acc[NN_MAX_HEADS], selector_majority[NN_MAX_HEADS];
+    double value_r2[2 * NN_MAX_HEADS];
+    double mean_selector_acc, median_value_r2;
+} fit_metrics;
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val,
+                           const rowset *train, const float *mean_y, fit_metrics *fm)
+{
+    memset(fm, 0, sizeof *fm);
+    int yc = L->n_values + L->n_selectors;
+    float *pred = malloc((val->n ? val->n : 1) * (size_t)yc * sizeof(float));
+    if (!pred)
+        return -1;
+    for (size_t i = 0; i < val->n; i += 256) {
+        int B = val->n - i < 256 ? (int)(val->n - i) : 256;
+        if (nn_mlp_predict(net, val->Z + i * (size_t)net->cfg.width[0], B,
+                           pred + i * (size_t)yc)) {
+            free(pred);
+            return -1;
+        }
+    }
+    double r2s[2 * NN_MAX_HEADS];
+    int nr2 = 0;
+    for (int c = 0; c < yc; c++) {
+        int is_sel = c >= L->n_values;
+        double hit = 0, cnt = 0, sse = 0, sst = 0;
+        for (size_t i = 0; i < val->n; i++) {
+            if (val->M[i * (size_t)yc + c] == 0)
+                continue;
+            double y = val->Y[i * (size_t)yc + c], p = pred[i * (size_t)yc + c];
+            cnt++;
+            hit += is_sel && p == y;
+            sse += (p - y) * (p - y);
+            sst += (y - mean_y[c]) * (y - mean_y[c]);
+        }
+        if (is_sel) {
+            int s = c - L->n_values;
+            fm->selector_acc[s] = cnt ? hit / cnt : NAN;
+            // majority class among the training rows where the selector is active
+            double counts[64] = {0}, total = 0;
+            for (size_t i = 0; i < train->n; i++)
+                if (train->M[i * (size_t)yc + c] != 0) {
+                    int k = (int)train->Y[i * (size_t)yc + c];
+                    if (k >= 0 && k < 64) {
+                        counts[k]++;
+                        total++;
+                    }
+                }
+            double best = 0;
+            for (int k = 0; k < 64; k++)
+                best = fmax(best, counts[k]);
+            fm->selector_majority[s] = total ? best / total : NAN;
+            fm->mean_selector_acc += fm->selector_acc[s] / L->n_selectors;
+        } else {
+            fm->value_r2[c] = sst > 0 ? 1 - sse / sst : NAN;
+            if (isfinite(fm->value_r2[c]))
+                r2s[nr2++] = fm->value_r2[c];
+        }
+    }
+    qsort(r2s, (size_t)nr2, sizeof *r2s, cmp_double);
+    fm->median_value_r2 = nr2 ? (nr2 % 2 ? r2s[nr2 / 2] : (r2s[nr2 / 2 - 1] + r2s[nr2 / 2]) / 2)
+                              : NAN;
+    free(pred);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- the run ---------- */
+
+/* The settings that define a run (a resumed run must have the same). */
+static char *run_settings_json(const predictor_fit_options *o, const char *arch,
+                               const char *train_config, size_t n_train, size_t n_val)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "dataset", o->dataset_path);
+    cJSON_AddStringToObject(j, "val_dataset", o->val_dataset_path ? o->val_dataset_path : "");
+    cJSON_AddNumberToObject(j, "val_fraction", o->val_dataset_path ? 0 : o->val_fraction);
+    cJSON_AddNumberToObject(j, "max_ids", (double)o->max_ids);
+    cJSON_AddNumberToObject(j, "train_rows", (double)n_train);
+    cJSON_AddNumberToObject(j, "val_rows", (double)n_val);
+    cJSON_AddNumberToObject(j, "components", o->components);
+    cJSON_AddStringToObject(j, "arch", arch);
+    cJSON_AddNumberToObject(j, "epochs", o->epochs);
+    cJSON_AddNumberToObject(j, "batch", o->batch);
+    cJSON_AddNumberToObject(j, "lr", o->lr);
+    cJSON_AddNumberToObject(j, "weight_decay", o->weight_decay);
+    cJSON_AddNumberToObject(j, "value_weight", o->value_weight);
+    cJSON_AddNumberToObject(j, "seed", (double)o->seed);
+    cJSON_AddStringToObject(j, "optimizer", "adamw, cosine schedule, 1 epoch warm-up");
+    cJSON *cfg = cJSON_Parse(train_config);
+    cJSON_AddItemToObject(j, "dataset_config", cfg ? cfg : cJSON_CreateNull());
+    char *s = cJSON_PrintUnformatted(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+static int write_losses(const char *dir, const double *train_loss, const double *val_loss,
+                        const double *acc, const double *r2, int n, char *err, size_t errlen)
+{
+    size_t cap = 128 + (size_t)n * 128;
+    char *csv = malloc(cap), path[1200];
+    if (!csv)
+        return pipeline_error(err, errlen, "out of memory");
+    size_t len = (size_t)snprintf(csv, cap, "epoch,train_loss,val_loss,val_selector_accuracy,"
+                                            "val_median_r2\n");
+    for (int e = 0; e < n; e++)
+        len += (size_t)snprintf(csv + len, cap - len, "%d,%.9g,%.9g,%.6g,%.6g\n", e + 1,
+                                train_loss[e], val_loss[e], acc[e], r2[e]);
+    int rc = predictor_path_join(path, sizeof path, dir, "losses.csv", err, errlen) ||
+             predictor_write_text(path, csv, err, errlen);
+    free(csv);
+    if (rc)
+        return -1;
+    if (predictor_path_join(path, sizeof path, dir, "loss.svg", err, errlen))
+        return -1;
+    return pipeline_write_loss_svg(path, train_loss, val_loss, n, "epoch", err, errlen);
+}
+
+typedef struct run_state {
+    int epochs_done, best_epoch;
+    double best_val;
+    double *train_loss, *val_loss, *acc, *r2; /* epochs each */
+} run_state;
+
+static char *state_json(const char *settings, const run_state *s)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddItemToObject(j, "settings", cJSON_Parse(settings));
+    cJSON_AddNumberToObject(j, "epochs_done", s->epochs_done);
+    cJSON_AddNumberToObject(j, "best_epoch", s->best_epoch);
+    cJSON_AddNumberToObject(j, "best_val_loss", s->best_val);
+    cJSON *h = cJSON_AddArrayToObject(j, "history");
+    for (int e = 0; e < s->epochs_done; e++) {
+        cJSON *r = cJSON_CreateArray();
+        // %.17g round trip: a resumed run's curve is the uninterrupted one's
+        double v[4] = {s->train_loss[e], s->val_loss[e], s->acc[e], s->r2[e]};
+        for (int k = 0; k < 4; k++)
+            cJSON_AddItemToArray(r, cJSON_CreateNumber(isfinite(v[k]) ? v[k] : -1));
+        cJSON_AddItemToArray(h, r);
+    }
+    char *out = cJSON_Print(j);
+    cJSON_Delete(j);
+    return out;
+}
+
+/* Reads OUT.partial/state.json: 1 when it is a run with these settings (s filled in), 0
+ * when there is none, 2 when it is another run's (or unreadable). */
+static int state_read(const char *path, const char *settings, run_state *s, int epochs)
+{
+    char *text = pipeline_read_file(path, NULL, NULL, 0);
+    if (!text)
+        return 0;
+    cJSON *j = cJSON_Parse(text), *want = cJSON_Parse(settings);
+    free(text);
+    int rc = 2;
+    if (j && want && cJSON_Compare(cJSON_GetObjectItemCaseSensitive(j, "settings"), want, 1)) {
+        const cJSON *done = cJSON_GetObjectItemCaseSensitive(j, "epochs_done");
+        const cJSON *be = cJSON_GetObjectItemCaseSensitive(j, "best_epoch");
+        const cJSON *bv = cJSON_GetObjectItemCaseSensitive(j, "best_val_loss");
+        const cJSON *h = cJSON_GetObjectItemCaseSensitive(j, "history");
+        if (cJSON_IsNumber(done) && cJSON_IsNumber(be) && cJSON_IsNumber(bv) &&
+            done->valueint >= 0 && done->valueint <= epochs &&
+            cJSON_GetArraySize(h) == done->valueint) {
+            s->epochs_done = done->valueint;
+            s->best_epoch = be->valueint;
+            s->best_val = bv->valuedouble;
+            for (int e = 0; e < s->epochs_done; e++) {
+                const cJSON *r = cJSON_GetArrayItem(h, e);
+                s->train_loss[e] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 0));
+                s->val_loss[e] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 1));
+                s->acc[e] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 2));
+                s->r2[e] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 3));
+            }
+            rc = 1;
+        }
+    }
+    cJSON_Delete(j);
+    cJSON_Delete(want);
+    return rc;
+}
+
+static char *model_json(const predictor_fit_options *o, const param_layout *L,
+                        char *const *names, const char *settings, const char *config,
+                        size_t d, const rowset *train, const rowset *val, const run_state *st,
+                        const fit_metrics *fm, const char *arch, const char *heads,
+                        double seconds)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "format", MODEL_FORMAT);
+    cJSON *ds = cJSON_AddObjectToObject(j, "dataset");
+    cJSON_AddStringToObject(ds, "path", o->dataset_path);
+    cJSON_AddItemToObject(ds, "config", cJSON_Parse(config));
+    cJSON_AddNumberToObject(ds, "train_rows", (double)train->n);
+    cJSON_AddNumberToObject(ds, "val_rows", (double)val->n);
+    long long lo = train->n ? train->ids[0] : 0, hi = train->n ? train->ids[train->n - 1] : 0;
+    cJSON *ids = cJSON_AddArrayToObject(ds, "train_ids");
+    cJSON_AddItemToArray(ids, cJSON_CreateNumber((double)lo));
+    cJSON_AddItemToArray(ids, cJSON_CreateNumber((double)hi));
+    cJSON *pa = cJSON_AddArrayToObject(j, "parameters");
+    cJSON *roles = cJSON_AddArrayToObject(j, "roles");
+    for (int i = 0; i < L->n_params; i++) {
+        cJSON_AddItemToArray(pa, cJSON_CreateString(names[i]));
+        cJSON_AddItemToArray(roles, cJSON_CreateString(L->role[i] == ROLE_SELECTOR ? "selector"
+                                                       : L->role[i] == ROLE_SEED   ? "seed"
+                                                                                   : "value"));
+    }
+    cJSON *tr = cJSON_AddObjectToObject(j, "transform");
+    cJSON_AddNumberToObject(tr, "features", (double)d);
+    cJSON_AddStringToObject(tr, "signed_log", "t = sign(x) log1p(|x| / s), s = mean |x|");
+    cJSON_AddStringToObject(tr, "standardise", "(t - mean) / std over the training rows");
+    cJSON_AddNumberToObject(tr, "components", o->components);
+    cJSON_AddStringToObject(tr, "pca", "randomized SVD, 2 power iterations, whitened");
+    cJSON *net = cJSON_AddObjectToObject(j, "network");
+    cJSON_AddStringToObject(net, "arch", arch);
+    cJSON_AddStringToObject(net, "heads", heads);
+    cJSON_AddItemToObject(j, "training", cJSON_Parse(settings));
+    cJSON *res = cJSON_AddObjectToObject(j, "result");
+    cJSON_AddNumberToObject(res, "best_epoch", st->best_epoch);
+    cJSON_AddNumberToObject(res, "best_val_loss", st->best_val);
+    cJSON_AddNumberToObject(res, "seconds", round(seconds * 10) / 10);
+    cJSON_AddNumberToObject(res, "val_mean_selector_accuracy", fm->mean_selector_acc);
+    cJSON_AddNumberToObject(res, "val_median_value_r2", fm->median_value_r2);
+    cJSON *sel = cJSON_AddObjectToObject(res, "val_selector_accuracy");
+    cJSON *maj = cJSON_AddObjectToObject(res, "train_selector_majority");
+    cJSON *r2 = cJSON_AddObjectToObject(res, "val_value_r2");
+    for (int i = 0; i < L->n_params; i++) {
+        if (L->role[i] == ROLE_SELECTOR) {
+            int s = L->column[i] - L->n_values;
+            cJSON_AddNumberToObject(sel, names[i], round(fm->selector_acc[s] * 1e4) / 1e4);
+            cJSON_AddNumberToObject(maj, names[i], round(fm->selector_majority[s] * 1e4) / 1e4);
+        } else if (L->role[i] == ROLE_VALUE) {
+            double v = fm->value_r2[L->column[i]];
+            if (isfinite(v))
+                cJSON_AddNumberToObject(r2, names[i], round(v * 1e4) / 1e4);
+        }
+    }
+    char *s = cJSON_Print(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
+{
+    double t_start = pipeline_now();
+    rowset train = {0}, val = {0};
+    char **names = NULL, *config = NULL, *vconfig = NULL, *settings = NULL, *text = NULL;
+    int np = 0, rc = -1;
+    size_t d = 0;
+    float *scale = NULL, *mean = NULL, *std = NULL, *comp = NULL, *var = NULL, *mean_p = NULL;
+    float *best_w = NULL, *bx = NULL, *by = NULL, *bm = NULL, *mean_y = NULL;
+    size_t *order = NULL;
+    nn_mlp net = {0};
+    nn_optimizer opt = {0};
+    run_state st = {0};
+    char partial[1100], path[1200], arch[256], heads_spec[1024], msg[768];
+    param_layout L;
+
+    if (snprintf(partial, sizeof partial, "%s.partial", o->out_dir) >= (int)sizeof partial)
+        return pipeline_error(err, errlen, "%.200s...: path too long", o->out_dir);
+    struct stat sb;
+    if (!stat(o->out_dir, &sb))
+        return pipeline_error(err, errlen, "%s: exists; remove it or choose another output",
+                              o->out_dir);
+    if (o->epochs < 1 || o->batch < 1 || o->components < 1 || !(o->lr > 0))
+        return pipeline_error(err, errlen, "epochs, batch, components and lr must be positive");
+
+    // OpenBLAS's own threads would split sums differently from run to run (nn/nn.h); our
+    // workers parallelise instead
+    openblas_set_num_threads(1);
+
+    // 1. rows
+    if (read_rows(o->dataset_path, o->val_dataset_path ? -1.0 : o->val_fraction, o->max_ids,
+                  &train, &val, &d, &names, &np, &config, err, errlen))
+        goto done;
+    if (o->val_dataset_path) {
+        if (read_rows(o->val_dataset_path, -1.0, 0, &val, NULL, &d, NULL, &np, &vconfig, err,
+                      errlen))
+            goto done;
+        char why[128];
+        if (!configs_compatible(config, vconfig, why, sizeof why)) {
+            pipeline_error(err, errlen, "%s: not made like %s (%s)", o->val_dataset_path,
+                           o->dataset_path, why);
+            goto done;
+        }
+    }
+    if (train.n < 2 || val.n < 1) {
+        pipeline_error(err, errlen, "%s: %zu training and %zu validation rows: too few to fit",
+                       o->dataset_path, train.n, val.n);
+        goto done;
+    }
+    if ((size_t)o->components > d || (size_t)o->components >= train.n) {
+        pipeline_error(err, errlen, "%d components from %zu rows of %zu features: at most "
+                                    "min(rows - 1, features)",
+                       o->components, train.n, d);
+        goto done;
+    }
+    if (predictor_layout_make(&L, (const char *const *)names, np, err, errlen))
+        goto done;
+    int outputs = predictor_layout_outputs(&L), yc = L.n_values + L.n_selectors, k = o->components;
+    snprintf(arch, sizeof arch, "mlp:%d-%s-%d,ln,dropout=%g", k, o->hidden, outputs,
+             (double)o->dropout);
+    nn_mlp_config cfg;
+    if (nn_mlp_parse_arch(arch, &cfg, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "hidden layers \"%s\": %s", o->hidden, msg);
+        goto done;
+    }
+    settings = run_settings_json(o, arch, config, train.n, val.n);
+
+    // 2. the run's directory: resume it when it is this run's
+    st.train_loss = calloc((size_t)o->epochs, sizeof(double));
+    st.val_loss = calloc((size_t)o->epochs, sizeof(double));
+    st.acc = calloc((size_t)o->epochs, sizeof(double));
+    st.r2 = calloc((size_t)o->epochs, sizeof(double));
+    st.best_val = INFINITY;
+    st.best_epoch = 0;
+    if (!settings || !st.train_loss || !st.val_loss || !st.acc || !st.r2) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    char state_path[1200];
+    snprintf(state_path, sizeof state_path, "%s/state.json", partial);
+    int resumed = state_read(state_path, settings, &st, o->epochs);
+    if (resumed == 2 && !o->restart) {
+        pipeline_error(err, errlen, "%s: an unfinished run with other settings; rerun it with "
+                                    "its settings, or pass --restart to discard it",
+                       partial);
+        goto done;
+    }
+    if (resumed != 1 && !stat(partial, &sb)) { /* killed before its first state: start over */
+        {
+        }
+        remove_tree(partial);
+        resumed = 0;
+    }
+    if (mkdir_p1(partial, err, errlen))
+        goto done;
+
+    // 3. the input transform (fitted once per run), applied to both sides
+    scale = malloc(d * sizeof(float));
+    mean = malloc(d * sizeof(float));
+    std = malloc(d * sizeof(float));
+    comp = malloc((size_t)k * d * sizeof(float));
+    var = malloc((size_t)k * sizeof(float));
+    mean_p = calloc((size_t)np, sizeof(float));
+    train.Z = malloc(train.n * (size_t)k * sizeof(float));
+    val.Z = malloc(val.n * (size_t)k * sizeof(float));
+    if (!scale || !mean || !std || !comp || !var || !mean_p || !train.Z || !val.Z) {
+        pipeline_error(err, errlen, "out of memory for the transform");
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/transform.safetensors", partial);
+    nn_safetensors tst = {0};
+    if (resumed == 1 && !nn_safetensors_open(path, &tst, msg, sizeof msg)) {
+        int bad = predictor_read_tensor(&tst, "signed_log.scale", scale, d, err, errlen) ||
+                  predictor_read_tensor(&tst, "standardise.mean", mean, d, err, errlen) ||
+                  predictor_read_tensor(&tst, "standardise.std", std, d, err, errlen) ||
+                  predictor_read_tensor(&tst, "pca.components", comp, (size_t)k * d, err,
+                                        errlen) ||
+                  predictor_read_tensor(&tst, "pca.variance", var, (size_t)k, err, errlen) ||
+                  predictor_read_tensor(&tst, "params.mean", mean_p, (size_t)np, err, errlen);
+        nn_safetensors_close(&tst);
+        if (bad)
+            goto done;
+        for (size_t i = 0; i < train.n; i++)
+            predictor_transform_row(train.X + i * d, d, scale, mean, std);
+    } else {
+        if (o->progress_text)
+            o->progress_text(o->progress_ctx, "fitting the input transform and PCA");
+        if (predictor_transform_fit(train.X, train.n, d, scale, mean, std)) {
+            pipeline_error(err, errlen, "out of memory");
+            goto done;
+        }
+        if (nn_pca_fit(train.X, (int)train.n, (int)d, k, 2, o->seed, o->threads, comp, var, msg,
+                       sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+        for (size_t i = 0; i < train.n; i++)
+            for (int c = 0; c < np; c++)
+                mean_p[c] += train.params[i * (size_t)np + (size_t)c] / (float)train.n;
+        text = state_json(settings, &st); /* epochs_done 0: a kill from here on resumes */
+        if (write_transform(path, scale, mean, std, comp, var, mean_p, d, k, np, msg,
+                            sizeof msg) ||
+            !text || predictor_write_text(state_path, text, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
+            goto done;
+        }
+    }
+    for (size_t i = 0; i < val.n; i++)
+        predictor_transform_row(val.X + i * d, d, scale, mean, std);
+    nn_pca_transform(train.Z, train.X, comp, var, (int)train.n, (int)d, k, 1, o->threads);
+    nn_pca_transform(val.Z, val.X, comp, var, (int)val.n, (int)d, k, 1, o->threads);
+    free(train.X);
+    free(val.X);
+    train.X = val.X = NULL;
+
+    // 4. targets
+    train.Y = calloc(train.n * (size_t)yc, sizeof(float));
+    train.M = calloc(train.n * (size_t)yc, sizeof(float));
+    val.Y = calloc(val.n * (size_t)yc, sizeof(float));
+    val.M = calloc(val.n * (size_t)yc, sizeof(float));
+    mean_y = calloc((size_t)yc, sizeof(float));
+    if (!train.Y || !train.M || !val.Y || !val.M || !mean_y) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < train.n; i++)
+        predictor_layout_targets(&L, train.params + i * (size_t)np, train.active + i * (size_t)np,
+                                 train.Y + i * (size_t)yc, train.M + i * (size_t)yc);
+    for (size_t i = 0; i < val.n; i++)
+        predictor_layout_targets(&L, val.params + i * (size_t)np, val.active + i * (size_t)np,
+                                 val.Y + i * (size_t)yc, val.M + i * (size_t)yc);
+    for (int c = 0; c < yc; c++) { /* training mean where active: the R^2 baseline */
+        double s = 0, n = 0;
+        for (size_t i = 0; i < train.n; i++)
+            if (train.M[i * (size_t)yc + c] != 0) {
+                s += train.Y[i * (size_t)yc + c];
+                n++;
+            }
+        mean_y[c] = n ? (float)(s / n) : 0.0f;
+    }
+
+    // 5. the network and optimiser (from the checkpoint when resuming)
+    nn_head heads[NN_MAX_HEADS];
+    int nh = predictor_layout_heads(&L, heads, o->value_weight);
+    nn_heads_format(heads, nh, heads_spec, sizeof heads_spec);
+    long long per_epoch = (long long)((train.n + (size_t)o->batch - 1) / (size_t)o->batch);
+    run_file(path, sizeof path, partial, "checkpoint", st.epochs_done);
+    if (resumed == 1 && st.epochs_done > 0) {
+        if (nn_mlp_load(&net, &opt, path, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+    } else {
+        if (nn_mlp_create(&net, &cfg, heads, nh, o->seed, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+        nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
+        oc.lr = o->lr;
+        oc.weight_decay = o->weight_decay;
+        oc.schedule = NN_SCHEDULE_COSINE;
+        oc.warmup_steps = per_epoch;
+        oc.total_steps = per_epoch * o->epochs;
+        if (nn_optimizer_init(&opt, &oc, net.n_floats)) {
+            pipeline_error(err, errlen, "out of memory");
+            goto done;
+        }
+    }
+    net.threads = o->threads > 0 ? o->threads : 1;
+    net.dropout_seed = o->seed;
+    if (nn_mlp_check_data(&net, train.Z, train.Y, train.M, train.n, msg, sizeof msg) ||
+        nn_mlp_check_data(&net, val.Z, val.Y, val.M, val.n, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "%s", msg);
+        goto done;
+    }
+    best_w = malloc(net.n_floats * sizeof(float));
+    bx = malloc((size_t)o->batch * (size_t)k * sizeof(float));
+    by = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
+    bm = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
+    order = malloc(train.n * sizeof(size_t));
+    if (!best_w || !bx || !by || !bm || !order) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    memcpy(best_w, net.weights, net.n_floats * sizeof(float));
+    run_file(path, sizeof path, partial, "best", st.best_epoch);
+    if (resumed == 1 && st.epochs_done > 0) {
+        nn_mlp tmp = {0};
+        if (nn_mlp_load(&tmp, NULL, path, msg, sizeof msg) || tmp.n_floats != net.n_floats) {
+            nn_mlp_free(&tmp);
+            pipeline_error(err, errlen, "%s: %s", path, msg);
+            goto done;
+        }
+        memcpy(best_w, tmp.weights, net.n_floats * sizeof(float));
+        nn_mlp_free(&tmp);
+    }
+
+    // 6. epochs
+    for (int e = st.epochs_done; e < o->epochs; e++) {
+        double t0 = pipeline_now(), sum = 0;
+        nn_epoch_order(o->seed, e, 1, train.n, order);
+        for (long long s = 0; s < per_epoch; s++) {
+            long long epoch;
+            size_t first;
+            int count;
+            nn_step_batch((long long)e * per_epoch + s, train.n, o->batch, &epoch, &first, &count);
+            nn_gather_rows(bx, train.Z, (size_t)k, order + first, (size_t)count);
+            nn_gather_rows(by, train.Y, (size_t)yc, order + first, (size_t)count);
+            nn_gather_rows(bm, train.M, (size_t)yc, order + first, (size_t)count);
+            double loss;
+            if (nn_mlp_train_step(&net, &opt, bx, by, bm, count, &loss)) {
+                pipeline_error(err, errlen, "out of memory");
+                goto done;
+            }
+            sum += loss * count;
+        }
+        double vl;
+        fit_metrics fm;
+        if (nn_mlp_evaluate(&net, val.Z, val.Y, val.M, (int)val.n, &vl) ||
+            compute_metrics(&net, &L, &val, &train, mean_y, &fm)) {
+            pipeline_error(err, errlen, "out of memory");
+            goto done;
+        }
+        st.train_loss[e] = sum / (double)train.n;
+        st.val_loss[e] = vl;
+        st.acc[e] = fm.mean_selector_acc;
+        st.r2[e] = fm.median_value_r2;
+        int old_best = st.best_epoch;
+        st.epochs_done = e + 1;
+        if (vl < st.best_val) {
+            st.best_val = vl;
+            st.best_epoch = e + 1;
+            memcpy(best_w, net.weights, net.n_floats * sizeof(float));
+            run_file(path, sizeof path, partial, "best", e + 1);
+            if (nn_mlp_save(&net, NULL, path, msg, sizeof msg)) {
+                pipeline_error(err, errlen, "%s", msg);
+                goto done;
+            }
+        }
+        run_file(path, sizeof path, partial, "checkpoint", e + 1);
+        free(text);
+        text = state_json(settings, &st);
+        if (nn_mlp_save(&net, &opt, path, msg, sizeof msg) ||
+            predictor_write_text(state_path, text, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+        // the state now names epoch e + 1's files: the previous ones can go
+        run_file(path, sizeof path, partial, "checkpoint", e);
+        unlink(path);
+        if (old_best != st.best_epoch) {
+            run_file(path, sizeof path, partial, "best", old_best);
+            unlink(path);
+        }
+        if (o->progress)
+            o->progress(o->progress_ctx, e + 1, o->epochs, st.train_loss[e], vl, st.acc[e],
+                        st.r2[e], pipeline_now() - t0);
+        if (o->stop && *o->stop && e + 1 < o->epochs) {
+            rc = 1;
+            goto done;
+        }
+    }
+
+    // 7. the model: best weights, catalogue, description; then OUT in one rename
+    memcpy(net.weights, best_w, net.n_floats * sizeof(float));
+    fit_metrics fm;
+    if (compute_metrics(&net, &L, &val, &train, mean_y, &fm)) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/network.safetensors", partial);
+    if (nn_mlp_save(&net, NULL, path, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "%s", msg);
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/catalogue.safetensors", partial);
+    if (write_catalogue(path, &train, k, np, msg, sizeof msg) ||
+        write_losses(partial, st.train_loss, st.val_loss, st.acc, st.r2, st.epochs_done, msg,
+                     sizeof msg)) {
+        pipeline_error(err, errlen, "%s", msg);
+        goto done;
+    }
+    free(text);
+    text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm, arch,
+                      heads_spec, pipeline_now() - t_start);
+    snprintf(path, sizeof path, "%s/model.json", partial);
+    if (!text || predictor_write_text(path, text, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
+        goto done;
+    }
+    run_file(path, sizeof path, partial, "checkpoint", st.epochs_done);
+    unlink(path);
+    run_file(path, sizeof path, partial, "best", st.best_epoch);
+    unlink(path);
+    unlink(state_path);
+    if (rename(partial, o->out_dir)) {
+        pipeline_error(err, errlen, "%s: cannot rename into place: %s", o->out_dir,
+                       strerror(errno));
+        goto done;
+    }
+    if (o->result) {
+        o->result->best_epoch = st.best_epoch;
+        o->result->best_val_loss = st.best_val;
+        o->result->mean_selector_accuracy = fm.mean_selector_acc;
+        o->result->median_value_r2 = fm.median_value_r2;
+        o->result->train_rows = train.n;
+        o->result->val_rows = val.n;
+        o->result->seconds = pipeline_now() - t_start;
+    }
+    rc = 0;
+done:
+    for (int i = 0; names && i < np; i++)
+        free(names[i]);
+    free(names);
+    free(config);
+    free(vconfig);
+    free(settings);
+    free(text);
+    rowset_free(&train);
+    rowset_free(&val);
+    free(scale);
+    free(mean);
+    free(std);
+    free(comp);
+    free(var);
+    free(mean_p);
+    free(best_w);
+    free(bx);
+    free(by);
+    free(bm);
+    free(mean_y);
+    free(order);
+    free(st.train_loss);
+    free(st.val_loss);
+    free(st.acc);
+    free(st.r2);
+    nn_mlp_free(&net);
+    nn_optimizer_free(&opt);
+    return rc;
+}

@@ -1,0 +1,118 @@
+#!/bin/sh
+# imsynth fit-predictor and predict-params end to end on a small draft dataset: the model
+# directory is complete; the same bytes for 1 and 2 threads; kill -9 at random moments and
+# resume equals an uninterrupted run; SIGINT stops resumably; predictions are valid
+# parameter files, hypotheses ordered by probability, retrieval ordered by distance; bad
+# models and outputs are clear errors that leave nothing behind.
+# Usage: predictor.sh IMSYNTH REPO_ROOT
+imsynth=$1
+root=$2
+. "$root/tests/cli/lib/harness.sh"
+quick=${IMSYNTH_TEST_QUICK:-}
+py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
+
+n=32; [ -n "$quick" ] && n=24
+"$imsynth" datagen --out "$tmp/ds.sqlite" --count $n --preset draft --quiet
+check "a draft dataset of $n samples" 0 $?
+fit="--dataset $tmp/ds.sqlite --components 8 --hidden 16 --batch 8 --val-fraction 0.2 --quiet"
+
+"$imsynth" fit-predictor $fit --epochs 6 --threads 1 -o "$tmp/m1"; check "fit, 1 thread" 0 $?
+for f in model.json transform.safetensors network.safetensors catalogue.safetensors \
+    losses.csv loss.svg; do
+    [ -s "$tmp/m1/$f" ] || { echo "FAIL: model lacks $f"; failures=$((failures + 1)); }
+done
+[ ! -e "$tmp/m1.partial" ] || { echo "FAIL: m1.partial left behind"; failures=$((failures + 1)); }
+[ ! -e "$tmp/m1/checkpoint.safetensors" ] || { echo "FAIL: run files left in the model"; failures=$((failures + 1)); }
+lines=$(wc -l < "$tmp/m1/losses.csv")
+[ "$lines" = 7 ] && echo "ok: losses.csv has a row per epoch" || { echo "FAIL: losses.csv has $lines lines"; failures=$((failures + 1)); }
+# the training loss falls (a network that learns nothing would not fit even its training set)
+awk -F, 'NR == 2 { a = $2 } END { if (!($2 < a)) exit 1 }' "$tmp/m1/losses.csv"
+check "training loss falls over the epochs" 0 $?
+
+"$imsynth" fit-predictor $fit --epochs 6 --threads 2 -o "$tmp/m2"; check "fit, 2 threads" 0 $?
+cmp -s "$tmp/m1/network.safetensors" "$tmp/m2/network.safetensors" &&
+    cmp -s "$tmp/m1/transform.safetensors" "$tmp/m2/transform.safetensors" &&
+    cmp -s "$tmp/m1/catalogue.safetensors" "$tmp/m2/catalogue.safetensors"
+check "1 and 2 threads give the same model bytes" 0 $?
+
+# kill -9 at random moments, then the same command: the model of an uninterrupted run.
+kills=5; [ -n "$quick" ] && kills=3
+i=0
+moments=""
+while [ $i -lt $kills ]; do
+    "$imsynth" fit-predictor $fit --epochs 6 --threads 2 -o "$tmp/mk" &
+    pid=$!
+    t=$(awk -v s=$i 'BEGIN { srand(s + 3); printf "%.2f", rand() * 1.2 }')
+    moments="$moments $t"
+    sleep "$t"
+    kill -9 $pid 2> /dev/null
+    wait $pid 2> /dev/null
+    [ -d "$tmp/mk" ] && break # finished before the kill
+    i=$((i + 1))
+done
+echo "killed at:$moments s"
+[ -d "$tmp/mk" ] || "$imsynth" fit-predictor $fit --epochs 6 --threads 2 -o "$tmp/mk"
+check "resume after kills" 0 $?
+cmp -s "$tmp/m1/network.safetensors" "$tmp/mk/network.safetensors"
+check "killed and resumed equals uninterrupted" 0 $?
+
+# a partial run with other settings is refused, and kept, unless --restart
+mkdir -p "$tmp/mo.partial"
+echo '{"settings": {"other": 1}, "epochs_done": 0, "best_epoch": 0, "best_val_loss": 1, "history": []}' > "$tmp/mo.partial/state.json"
+"$imsynth" fit-predictor $fit --epochs 2 -o "$tmp/mo" 2> "$tmp/err"
+check "another run's partial directory is refused" 1 $?
+expect_stderr "says how to go on" "restart"
+"$imsynth" fit-predictor $fit --epochs 2 --restart -o "$tmp/mo"; check "--restart discards it" 0 $?
+"$imsynth" fit-predictor $fit --epochs 2 -o "$tmp/m1" 2> "$tmp/err"
+check "an existing model directory is not overwritten" 1 $?
+expect_stderr "names it" "m1: exists"
+
+# predictions
+img="$root/tests/reference/render/supershader_s1/blender-4.3-a.exr"
+"$imsynth" predict-params "$img" --model "$tmp/m1" -o "$tmp/p.json" --top-k 5 \
+    --hypotheses "$tmp/h.json" --nearest 4
+check "predict-params" 0 $?
+"$imsynth" render "$root/assets/supershader.json" --params "$tmp/p.json" --spp 1 -o "$tmp/p.exr" > /dev/null 2>&1
+check "the prediction is a parameter file render takes" 0 $?
+py "
+import json, sys
+p = json.load(open('$tmp/p.json')); h = json.load(open('$tmp/h.json'))
+assert len(p) == 50 and all(0 <= v <= 1 for v in p.values()), p
+hyp = h['hypotheses']; pr = [x['probability'] for x in hyp]
+assert len(hyp) == 5 and pr == sorted(pr, reverse=True) and 0 < sum(pr) <= 1 + 1e-9, pr
+assert hyp[0]['params'] == p
+sel = [k for k in p if k.startswith('Mult ')]
+combos = {tuple(x['params'][k] for k in sel) for x in hyp}
+assert len(combos) == 5, 'hypotheses must differ in their selectors'
+vals = [k for k in p if not k.startswith('Mult ')]
+assert all(x['params'][k] == p[k] for x in hyp for k in vals)
+nd = [x['distance'] for x in h['nearest']]
+assert len(nd) == 4 and nd == sorted(nd) and len({x['id'] for x in h['nearest']}) == 4, nd
+print('hypotheses', pr)
+"
+check "hypotheses: ordered, distinct, same values; nearest: ordered, distinct" 0 $?
+
+# bad models: clear errors naming the file
+"$imsynth" predict-params "$img" --model "$tmp/nothing" 2> "$tmp/err"
+check "a missing model directory" 1 $?
+expect_stderr "names it" "nothing: not a model directory"
+cp -r "$tmp/m1" "$tmp/bad"
+head -c 1000 "$tmp/m1/network.safetensors" > "$tmp/bad/network.safetensors"
+"$imsynth" predict-params "$img" --model "$tmp/bad" 2> "$tmp/err"
+check "a truncated network file" 1 $?
+expect_stderr "names the file" "bad/network.safetensors"
+cp "$tmp/m1/network.safetensors" "$tmp/bad/network.safetensors"
+echo '{"format": "imsynth-model/1", "parameters": [' > "$tmp/bad/model.json"
+"$imsynth" predict-params "$img" --model "$tmp/bad" 2> "$tmp/err"
+check "a broken model.json" 1 $?
+expect_stderr "names the file" "bad/model.json: not valid JSON"
+"$imsynth" predict-params "$tmp/ds.sqlite" --model "$tmp/m1" 2> "$tmp/err"
+check "an input that is not an image" 1 $?
+"$imsynth" fit-predictor --dataset "$tmp/none.sqlite" -o "$tmp/x" 2> "$tmp/err"
+check "a missing dataset" 1 $?
+[ ! -e "$tmp/x" ] && [ ! -e "$tmp/x.partial" ]
+check "a failed fit leaves nothing" 0 $?
+"$imsynth" fit-predictor $fit --components 4000 -o "$tmp/x" 2> "$tmp/err"
+check "more components than rows" 1 $?
+expect_stderr "says the limit" "at most min(rows - 1, features)"
+finish
