@@ -29,6 +29,7 @@ int cmd_infer(int argc, char **argv);
 int cmd_forest(int argc, char **argv);
 int cmd_fit_predictor(int argc, char **argv);
 int cmd_predict_params(int argc, char **argv);
+int cmd_evaluate(int argc, char **argv);
 
 /* Options shared by subcommands that take a graph and a parameter set (cli_graph.c):
  * [GRAPH.json] [--params P.json | --seed N] [--blender 3|4]; everything else lands in

@@ -30,6 +30,7 @@ static const subcommand subcommands[] = {
     {"forest", cmd_forest, "fit a multi-output random forest, rank features, predict (.npy)"},
     {"fit-predictor", cmd_fit_predictor, "train the parameter predictor on a dataset (model dir)"},
     {"predict-params", cmd_predict_params, "super-shader parameters for an image (top-k, JSON)"},
+    {"evaluate", cmd_evaluate, "a model against test inputs: every method, parameter and image space"},
 };
 
 void cli_error(const char *sub, const char *fmt, ...)
