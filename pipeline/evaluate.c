@@ -1270,9 +1270,27 @@ static void md_to_html(const char *md, strbuf *h)
         sb_printf(h, "</table>\n");
 }
 
-static const char *const report_files[] = {"report.json", "summary.csv", "summary.md",
-                                           "sheet-synthetic.png", "sheet-handmade.png",
-                                           "index.html"};
+/* A CSV field: as it is, or quoted (quotes doubled) when it holds a comma or a quote. */
+static const char *csv_field(const char *s, char *buf, size_t len)
+{
+    if (!strpbrk(s, ",\"\n"))
+        return s;
+    size_t k = 0;
+    buf[k++] = '"';
+    for (; *s && k + 3 < len; s++) {
+        if (*s == '"')
+            buf[k++] = '"';
+        buf[k++] = *s == '\n' ? ' ' : *s;
+    }
+    buf[k++] = '"';
+    buf[k] = 0;
+    return buf;
+}
+
+static const char *const report_files[] = {"report.json",         "summary.csv",
+                                           "summary.md",          "sheet-synthetic.png",
+                                           "sheet-handmade.png",  "index.html",
+                                           "inputs.csv",          "timings.json"};
 
 static int write_report(const report_ctx *c, char *err, size_t errlen)
 {
@@ -1299,6 +1317,24 @@ static int write_report(const report_ctx *c, char *err, size_t errlen)
         rc = write_text(c->dir, "summary.csv", csv.s, err, errlen);
     if (rc == 0)
         rc = write_text(c->dir, "summary.md", md.s, err, errlen);
+    if (rc == 0) {
+        /* Every input, method and distance in one table, for spreadsheets and scripts. */
+        strbuf rows = {0};
+        char field[2 * sizeof c->rs->v[0].name + 3];
+        sb_printf(&rows, "set,input,method,distance,raw,floor,normalised,candidates,chosen\n");
+        for (size_t i = 0; i < c->rs->n; i++) {
+            const record *rec = &c->rs->v[i];
+            for (int m = 0; m < N_METHODS; m++)
+                for (int d = 0; d < N_DIST; d++)
+                    sb_printf(&rows, "%s,%s,%s,%s,%.9g,%.9g,%.9g,%d,%d\n", set_names[rec->set],
+                              csv_field(rec->name, field, sizeof field), methods[m].name, dist_names[d], rec->r.dist[m][d],
+                              rec->r.floor[d], rec->r.norm[m][d], rec->r.n_candidates[m],
+                              rec->r.chosen_index[m]);
+        }
+        rc = rows.failed ? pipeline_error(err, errlen, "out of memory for inputs.csv")
+                         : write_text(c->dir, "inputs.csv", rows.s, err, errlen);
+        free(rows.s);
+    }
     char path[1400];
     int sheets[2] = {0, 0};
     for (int hm = 0; hm < 2 && rc == 0; hm++) {
@@ -1321,7 +1357,8 @@ static int write_report(const report_ctx *c, char *err, size_t errlen)
                           hm ? "hand-made" : "synthetic", dist_names[c->sh->train],
                           report_files[3 + hm]);
         sb_printf(&html, "<p>Raw figures: <a href=\"report.json\">report.json</a>, "
-                         "<a href=\"summary.csv\">summary.csv</a>.</p>\n</body></html>\n");
+                         "<a href=\"summary.csv\">summary.csv</a>, <a href=\"inputs.csv\">"
+                         "inputs.csv</a>.</p>\n</body></html>\n");
         rc = html.failed ? pipeline_error(err, errlen, "out of memory for index.html")
                          : write_text(c->dir, "index.html", html.s, err, errlen);
     }
@@ -1338,8 +1375,6 @@ static void remove_report_dir(const char *dir)
         snprintf(path, sizeof path, "%s/%s", dir, report_files[i]);
         unlink(path);
     }
-    snprintf(path, sizeof path, "%s/timings.json", dir);
-    unlink(path);
     rmdir(dir);
 }
 
@@ -1655,6 +1690,10 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         rc_ctx.test_rows = o->limit > 0 && o->limit < info.rows ? o->limit : info.rows;
     }
 
+    if (o->handmade_dir && load_handmade(o->handmade_dir, &sh, &hand, &n_hand,
+                                         &rc_ctx.handmade_materials, err, errlen))
+        goto done;
+
     workers = calloc((size_t)threads, sizeof *workers);
     if (!workers) {
         pipeline_error(err, errlen, "out of memory");
@@ -1672,9 +1711,6 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
                        workers[0].desc_size[sh.train]);
         goto done;
     }
-    if (o->handmade_dir && load_handmade(o->handmade_dir, &sh, &hand, &n_hand,
-                                         &rc_ctx.handmade_materials, err, errlen))
-        goto done;
     if (mkdir(tmp_dir, 0777) != 0) {
         pipeline_error(err, errlen, "%s: cannot create: %s", tmp_dir, strerror(errno));
         goto done;

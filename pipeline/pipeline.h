@@ -420,8 +420,10 @@ typedef struct evaluate_options {
     void *progress_ctx;
 } evaluate_options;
 
-/* Runs the evaluation into o->out_dir: report.json, summary.csv, summary.md,
- * sheet-synthetic.png, sheet-handmade.png (when there are hand-made inputs), index.html.
+/* Runs the evaluation into o->out_dir: report.json, summary.csv, summary.md, inputs.csv
+ * (every input, method and distance), sheet-synthetic.png and sheet-handmade.png (when
+ * there are such inputs), index.html, timings.json (wall clock: apart, so that the rest
+ * does not depend on the run, --threads included).
  * The folder is written as o->out_dir.tmp.PID and renamed when complete; on error nothing
  * is left. Returns 0, or -1 with a message naming the file and the place. */
 int evaluate_run(const evaluate_options *o, char *err, size_t errlen);

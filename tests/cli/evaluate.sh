@@ -1,0 +1,107 @@
+#!/bin/sh
+# imsynth evaluate end to end on tiny data: a draft training set and model, a test set of
+# one sample with an augmented (flash, rotated) view, one hand-made material made with our
+# renderer (render, shifted, flash). The report folder is complete; every input has every
+# method with finite distances; a -topk method is never farther than its first candidate
+# under the training descriptor (it picks by it, over the same renders); the mean method's
+# R^2 is 0 (R^2 is taken about the training mean); the same report for 1 and 2 threads;
+# errors are clear and leave no folder behind. Usage: evaluate.sh IMSYNTH REPO_ROOT
+imsynth=$1
+root=$2
+. "$root/tests/cli/lib/harness.sh"
+
+"$imsynth" evaluate --help > "$tmp/out"; check "evaluate --help" 0 $?
+expect_stdout "help documents the Gram distance" "||a_l - b_l||"
+"$imsynth" evaluate --model m -o r 2> "$tmp/err"; check "no inputs" 2 $?
+"$imsynth" evaluate --model m --test t -o r --top-k 0 2> "$tmp/err"; check "bad --top-k" 2 $?
+"$imsynth" evaluate --model m --test t -o r --preset fast 2> "$tmp/err"; check "bad --preset" 2 $?
+expect_stderr "preset message lists the presets" "draft, datagen, converged"
+
+quick=${IMSYNTH_TEST_QUICK:-}
+"$imsynth" datagen --out "$tmp/train.sqlite" --count 8 --preset draft --quiet
+check "a draft training set" 0 $?
+"$imsynth" datagen --out "$tmp/test.sqlite" --count 1 --first-id 1000000 --preset draft \
+    --augment views=1,flash=1,rotate=45 --quiet
+check "a test set of one sample, two views" 0 $?
+"$imsynth" fit-predictor --dataset "$tmp/train.sqlite" --components 4 --hidden 8 --epochs 2 \
+    --batch 4 --val-fraction 0.25 --quiet -o "$tmp/model"
+check "a tiny model" 0 $?
+
+# A "hand-made" material: our own renders stand in for Cycles' here.
+hm="$tmp/hm/marble"
+mkdir -p "$hm"
+sed 's/"faces"/"transform": {"location": [0.3, 0.2, 0], "rotation_euler": [0, 0, 0]}, "faces"/' \
+    "$root/assets/scene.json" > "$tmp/scene-shifted.json"
+r="--spp 1 --max-spp 0 --threads 2"
+"$imsynth" render "$root/assets/examples/marble.json" $r -o "$hm/render.exr" > /dev/null &&
+    "$imsynth" render "$root/assets/examples/marble.json" $r --scene "$tmp/scene-shifted.json" \
+        -o "$hm/shifted.exr" > /dev/null &&
+    { [ -n "$quick" ] || "$imsynth" render "$root/assets/examples/marble.json" $r \
+        --scene "$root/assets/scene-flash.json" -o "$hm/flash.exr" > /dev/null; }
+check "hand-made renders" 0 $?
+# Quick runs (the sanitizer's) leave out the flash input and the 1-thread run: 3 inputs.
+n_inputs=4; [ -n "$quick" ] && n_inputs=3
+cmp -s "$hm/render.exr" "$hm/shifted.exr" && { echo "FAIL: the shifted scene moved nothing"; failures=$((failures + 1)); }
+
+ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft"
+"$imsynth" evaluate $ev --threads 2 -o "$tmp/r2" > "$tmp/out" 2> "$tmp/err"
+check "evaluate, 2 threads" 0 $?
+expect_stderr "progress with an ETA" "ETA"
+for f in report.json summary.csv summary.md inputs.csv sheet-synthetic.png sheet-handmade.png \
+    index.html timings.json; do
+    [ -s "$tmp/r2/$f" ] || { echo "FAIL: the report lacks $f"; failures=$((failures + 1)); }
+done
+ls "$tmp" | grep -q '\.tmp\.' && { echo "FAIL: a temporary folder left behind"; failures=$((failures + 1)); }
+grep -q 'sheet-handmade.png' "$tmp/r2/index.html" && grep -q '<table>' "$tmp/r2/index.html"
+check "index.html shows tables and sheets" 0 $?
+
+# inputs.csv: the inputs (plain, augmented, hand-made, hand-made flash) x 6 methods x 3
+# distances, all finite and positive.
+csv="$tmp/r2/inputs.csv"
+rows=$(($(wc -l < "$csv") - 1))
+[ "$rows" = $((n_inputs * 18)) ] && echo "ok: inputs.csv has $n_inputs x 6 x 3 rows" || { echo "FAIL: inputs.csv has $rows rows"; failures=$((failures + 1)); }
+sets="synthetic synthetic-augmented handmade"; [ -n "$quick" ] || sets="$sets handmade-flash"
+for s in $sets; do
+    grep -q "^$s," "$csv" || { echo "FAIL: no $s input"; failures=$((failures + 1)); }
+done
+awk -F, 'NR > 1 && !($5 > 0 && $6 > 0 && $7 > 0 && $7 < 1e6) { print; bad = 1 } END { exit bad }' "$csv"
+check "every distance, floor and normalised distance finite and positive" 0 $?
+# The training descriptor is MobileNetV2 (datagen's default): each -topk method is at most as
+# far as its first candidate, and it had 2 candidates.
+awk -F, '$4 == "mobilenetv2" { d[$2 "/" $3] = $7; if ($3 ~ /topk/) n[$2 "/" $3] = $8 }
+    END { for (k in n) { split(k, a, "/"); base = a[2]; sub(/-topk/, "", base)
+            if (!(d[k] <= d[a[1] "/" base]) || n[k] != 2) { print k, d[k], d[a[1] "/" base], n[k]; bad = 1 } }
+          exit bad }' "$csv"
+check "top-k picks by the training descriptor (never worse than its first)" 0 $?
+# The mean method's R^2 is 0 wherever defined: R^2 is taken about the training mean.
+awk -F, '$2 == "mean" && $4 == "value" && $8 !~ /nan/ && $8 != 0 { print; bad = 1 } END { exit bad }' \
+    "$tmp/r2/summary.csv"
+check "the mean method's R^2 is 0" 0 $?
+if [ -z "$quick" ]; then
+    grep -q 'render.exr vs shifted.exr' "$tmp/r2/report.json"
+    check "the flash input takes the plain pair's floor" 0 $?
+    "$imsynth" evaluate $ev --threads 1 -o "$tmp/r1" > /dev/null 2>&1; check "evaluate, 1 thread" 0 $?
+    for f in report.json summary.csv inputs.csv summary.md sheet-synthetic.png sheet-handmade.png; do
+        cmp -s "$tmp/r1/$f" "$tmp/r2/$f" || { echo "FAIL: $f differs between 1 and 2 threads"; failures=$((failures + 1)); }
+    done
+    echo "ok: 1 and 2 threads compared"
+fi
+
+# Errors: clear, naming the culprit, and no report folder (nor temporary) left.
+"$imsynth" evaluate --model "$tmp/no-model" --test "$tmp/test.sqlite" -o "$tmp/rx" 2> "$tmp/err"
+check "missing model" 1 $?
+expect_stderr "message names the model" "no-model"
+"$imsynth" evaluate $ev -o "$tmp/r2" 2> "$tmp/err"; check "existing report folder" 1 $?
+expect_stderr "message says it exists" "already exists"
+"$imsynth" evaluate --model "$tmp/model" --test "$tmp/train.sqlite" -o "$tmp/ry" 2> "$tmp/err"
+check "a test set overlapping the training set" 1 $?
+expect_stderr "message says overlap" "overlap the model's catalogue"
+mkdir -p "$tmp/hm2/x" && cp "$hm/render.exr" "$tmp/hm2/x/"
+"$imsynth" evaluate --model "$tmp/model" --handmade "$tmp/hm2" -o "$tmp/rz" 2> "$tmp/err"
+check "a hand-made material without shifted.exr" 1 $?
+expect_stderr "message names the missing file" "x/shifted.exr"
+for d in rx ry rz; do
+    [ -e "$tmp/$d" ] && { echo "FAIL: $d left by a failed run"; failures=$((failures + 1)); }
+done
+ls "$tmp" | grep -q '\.tmp\.' && { echo "FAIL: a temporary folder left behind"; failures=$((failures + 1)); }
+finish
