@@ -133,3 +133,47 @@ int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subsh
     sg_params_free(&p);
     return rc;
 }
+
+int pipeline_distinct_subshaders(sg_graph *g, int blender, const float *params, int n, int keep,
+                                 int *index, char *err, size_t errlen)
+{
+    sg_params p, saved;
+    sg_error e;
+    if (sg_params_from_graph(g, &p, &e) < 0)
+        return pipeline_error(err, errlen, "%s", e.msg);
+    if (sg_params_copy(&p, &saved) < 0) {
+        sg_params_free(&p);
+        return pipeline_error(err, errlen, "out of memory");
+    }
+    char **kept = calloc((size_t)(keep > 0 ? keep : 1), sizeof *kept);
+    int got = 0, rc = kept ? 0 : pipeline_error(err, errlen, "out of memory");
+    for (int i = 0; rc == 0 && i < n && got < keep; i++) {
+        memcpy(p.values, params + (size_t)i * (size_t)p.n, (size_t)p.n * sizeof(float));
+        if (sg_graph_bind_params(g, &p, &e) < 0) {
+            rc = pipeline_error(err, errlen, "parameter set %d: %s", i, e.msg);
+            break;
+        }
+        char *json = subshader_json(g, blender, NULL, err, errlen);
+        if (!json) {
+            rc = -1;
+            break;
+        }
+        int seen = 0;
+        for (int j = 0; j < got && !seen; j++)
+            seen = !strcmp(kept[j], json);
+        if (seen)
+            free(json);
+        else {
+            kept[got] = json;
+            index[got++] = i;
+        }
+    }
+    if (sg_graph_bind_params(g, &saved, &e) < 0 && rc == 0)
+        rc = pipeline_error(err, errlen, "%s", e.msg);
+    for (int j = 0; j < got; j++)
+        free(kept[j]);
+    free(kept);
+    sg_params_free(&p);
+    sg_params_free(&saved);
+    return rc < 0 ? -1 : got;
+}

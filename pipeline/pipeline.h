@@ -62,6 +62,14 @@ render_material *pipeline_render_material(const sg_graph *g, const char *graph_p
 int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subshader_nodes,
                            char *err, size_t errlen);
 
+/* Of n parameter sets for g (rows in g's parameter order), the indices of the first `keep`
+ * at most whose extracted sub-shaders (JSON, constants included) differ from every one kept
+ * before: sets that differ only in what the sub-shader ignores render alike, so a search
+ * over hypotheses should not spend renders on them. g's parameters are restored. Returns
+ * the count, or -1 with a message. */
+int pipeline_distinct_subshaders(sg_graph *g, int blender, const float *params, int n, int keep,
+                                 int *index, char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- hashing ---------- */
 
 /* SHA-256 (FIPS 180-4) of data, as 64 lowercase hex digits and a NUL. */

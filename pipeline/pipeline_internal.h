@@ -34,7 +34,10 @@ void sha256_final_hex(sha256_ctx *c, char out[65]);
 
 #define MODEL_FORMAT "imsynth-model/1"
 
-enum { ROLE_VALUE, ROLE_SELECTOR, ROLE_SEED };
+/* A hue is a value on a circle (0 and 1 are the same colour): it is learnt as the point
+ * ((cos 2 pi h + 1) / 2, (sin 2 pi h + 1) / 2), two value columns, so that a red near 0.99
+ * and one near 0.01 are neighbours to the loss too. */
+enum { ROLE_VALUE, ROLE_SELECTOR, ROLE_SEED, ROLE_HUE };
 
 /* How the parameters map to network outputs: values first (one sigmoid head), then one
  * softmax head per selector, in parameter order. */
@@ -42,7 +45,8 @@ typedef struct param_layout {
     int n_params, n_values, n_selectors;
     int role[NN_MAX_HEADS * 2];
     int classes[NN_MAX_HEADS * 2]; /* selectors */
-    int column[NN_MAX_HEADS * 2];  /* Y column: value index, or n_values + selector index */
+    int column[NN_MAX_HEADS * 2];  /* Y column: value index (a hue's first of two), or
+                                    * n_values + selector index */
 } param_layout;
 
 /* Roles from the names ("Mult N ..." selectors, "Pattern Offset" the seed, values). */

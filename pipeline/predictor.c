@@ -61,11 +61,15 @@ int predictor_layout_make(param_layout *L, const char *const *names, int n, char
     L->n_params = n;
     for (int i = 0; i < n; i++) {
         int c = sg_param_mult_choices(names[i]);
-        L->role[i] = c ? ROLE_SELECTOR : !strcmp(names[i], "Pattern Offset") ? ROLE_SEED
-                                                                               : ROLE_VALUE;
+        L->role[i] = c                                   ? ROLE_SELECTOR
+                     : !strcmp(names[i], "Pattern Offset") ? ROLE_SEED
+                     : strstr(names[i], "Hue")             ? ROLE_HUE
+                                                           : ROLE_VALUE;
         L->classes[i] = c;
-        if (L->role[i] == ROLE_VALUE)
-            L->column[i] = L->n_values++;
+        if (L->role[i] == ROLE_VALUE || L->role[i] == ROLE_HUE) {
+            L->column[i] = L->n_values;
+            L->n_values += L->role[i] == ROLE_HUE ? 2 : 1;
+        }
     }
     for (int i = 0; i < n; i++)
         if (L->role[i] == ROLE_SELECTOR)
@@ -117,9 +121,15 @@ void predictor_layout_targets(const param_layout *L, const float *params, const 
         if (L->role[i] == ROLE_SEED)
             continue;
         int c = L->column[i];
-        y[c] = L->role[i] == ROLE_SELECTOR ? (float)selector_class(params[i], L->classes[i])
-                                           : params[i];
         m[c] = active[i] ? 1.0f : 0.0f;
+        if (L->role[i] == ROLE_HUE) {
+            double a = 6.283185307179586 * params[i];
+            y[c] = (float)((cos(a) + 1) / 2);
+            y[c + 1] = (float)((sin(a) + 1) / 2);
+            m[c + 1] = m[c];
+        } else
+            y[c] = L->role[i] == ROLE_SELECTOR ? (float)selector_class(params[i], L->classes[i])
+                                               : params[i];
     }
 }
 
@@ -547,6 +557,12 @@ int predictor_predict(predictor *p, const float *descriptor, int k, float *param
         for (int i = 0, si = 0; i < L->n_params; i++) {
             if (L->role[i] == ROLE_VALUE)
                 row[i] = p->out[L->column[i]];
+            else if (L->role[i] == ROLE_HUE) {
+                const float *o = p->out + L->column[i];
+                double hue = atan2(2.0 * o[1] - 1, 2.0 * o[0] - 1) / 6.283185307179586;
+                hue = hue < 0 ? hue + 1 : hue;
+                row[i] = (float)(hue >= 1 ? 0 : hue);
+            }
             else if (L->role[i] == ROLE_SELECTOR)
                 row[i] = ((float)beam[h].cls[si++] + 0.5f) / (float)L->classes[i];
             else

@@ -18,6 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <dirent.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -205,8 +207,8 @@ static int mkdir_p1(const char *dir, char *err, size_t errlen)
     return 0;
 }
 
-/* Removes a run directory and everything in it (files only: a run makes no folders). */
-static void remove_tree(const char *dir)
+/* Removes the files of a run directory (a run makes no folders), keeping the directory. */
+static void clear_dir(const char *dir)
 {
     DIR *d = opendir(dir);
     if (d) {
@@ -219,7 +221,6 @@ static void remove_tree(const char *dir)
             }
         closedir(d);
     }
-    rmdir(dir);
 }
 
 /* The checkpoint after `epochs` epochs and the best weights as of then carry the epoch in
@@ -489,6 +490,7 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
         cJSON_AddItemToArray(pa, cJSON_CreateString(names[i]));
         cJSON_AddItemToArray(roles, cJSON_CreateString(L->role[i] == ROLE_SELECTOR ? "selector"
                                                        : L->role[i] == ROLE_SEED   ? "seed"
+                                                       : L->role[i] == ROLE_HUE    ? "hue"
                                                                                    : "value"));
     }
     cJSON *tr = cJSON_AddObjectToObject(j, "transform");
@@ -515,8 +517,11 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
             int s = L->column[i] - L->n_values;
             cJSON_AddNumberToObject(sel, names[i], round(fm->selector_acc[s] * 1e4) / 1e4);
             cJSON_AddNumberToObject(maj, names[i], round(fm->selector_majority[s] * 1e4) / 1e4);
-        } else if (L->role[i] == ROLE_VALUE) {
-            double v = fm->value_r2[L->column[i]];
+        } else if (L->role[i] == ROLE_VALUE || L->role[i] == ROLE_HUE) {
+            // a hue's figure: the mean of its cosine and sine columns'
+            double v = L->role[i] == ROLE_HUE ? (fm->value_r2[L->column[i]] +
+                                                 fm->value_r2[L->column[i] + 1]) / 2
+                                              : fm->value_r2[L->column[i]];
             if (isfinite(v))
                 cJSON_AddNumberToObject(r2, names[i], round(v * 1e4) / 1e4);
         }
@@ -531,7 +536,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     double t_start = pipeline_now();
     rowset train = {0}, val = {0};
     char **names = NULL, *config = NULL, *vconfig = NULL, *settings = NULL, *text = NULL;
-    int np = 0, rc = -1;
+    int np = 0, rc = -1, lock_fd = -1;
     size_t d = 0;
     float *scale = NULL, *mean = NULL, *std = NULL, *comp = NULL, *var = NULL, *mean_p = NULL;
     float *best_w = NULL, *bx = NULL, *by = NULL, *bm = NULL, *mean_y = NULL;
@@ -604,6 +609,17 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
+    // one writer at a time: an flock on the run's directory (released when the process
+    // ends, however it ends)
+    if (mkdir_p1(partial, err, errlen))
+        goto done;
+    lock_fd = open(partial, O_RDONLY | O_DIRECTORY);
+    if (lock_fd < 0 || flock(lock_fd, LOCK_EX | LOCK_NB)) {
+        pipeline_error(err, errlen, "%s: %s", partial,
+                       lock_fd < 0 ? strerror(errno)
+                                   : "another imsynth fit-predictor is writing this run");
+        goto done;
+    }
     char state_path[1200];
     snprintf(state_path, sizeof state_path, "%s/state.json", partial);
     int resumed = state_read(state_path, settings, &st, o->epochs);
@@ -613,14 +629,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
                        partial);
         goto done;
     }
-    if (resumed != 1 && !stat(partial, &sb)) { /* killed before its first state: start over */
-        {
-        }
-        remove_tree(partial);
+    if (resumed != 1) { /* nothing to resume (or discarded): start from an empty directory */
+        clear_dir(partial);
         resumed = 0;
     }
-    if (mkdir_p1(partial, err, errlen))
-        goto done;
 
     // 3. the input transform (fitted once per run), applied to both sides
     scale = malloc(d * sizeof(float));
@@ -904,5 +916,7 @@ done:
     free(st.r2);
     nn_mlp_free(&net);
     nn_optimizer_free(&opt);
+    if (lock_fd >= 0)
+        close(lock_fd);
     return rc;
 }

@@ -67,6 +67,17 @@ expect_stderr "says how to go on" "restart"
 check "an existing model directory is not overwritten" 1 $?
 expect_stderr "names it" "m1: exists"
 
+# two runs on one output: the second is refused while the first holds the run's lock
+"$imsynth" fit-predictor $fit --epochs 5000 -o "$tmp/ml" &
+pid=$!
+i=0
+while [ ! -e "$tmp/ml.partial/state.json" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+"$imsynth" fit-predictor $fit --epochs 5000 -o "$tmp/ml" 2> "$tmp/err"
+check "a second run on the same output is refused" 1 $?
+expect_stderr "says why" "another imsynth fit-predictor is writing this run"
+kill -9 $pid 2> /dev/null
+wait $pid 2> /dev/null
+
 # predictions
 img="$root/tests/reference/render/supershader_s1/blender-4.3-a.exr"
 "$imsynth" predict-params "$img" --model "$tmp/m1" -o "$tmp/p.json" --top-k 5 \

@@ -177,6 +177,53 @@ static void test_inactive_params_change_nothing(void **state)
     sg_graph_free(g);
 }
 
+/* Hypotheses that differ only in an inactive parameter extract alike and are kept once;
+ * a different material is kept; g's parameters come back unchanged. */
+static void test_distinct_subshaders(void **state)
+{
+    (void)state;
+    sg_error err;
+    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
+    assert_non_null(g);
+    sg_params p;
+    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    int n = p.n, found = 0;
+    float *sets = malloc(sizeof(float) * 4 * (size_t)n);
+    for (int s = 0; s < 20 && !found; s++) {
+        sg_params_sample(&p, (unsigned long long)(2000 + s));
+        assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+        uint8_t active[64];
+        char msg[512];
+        assert_int_equal(pipeline_active_params(g, 4, active, NULL, msg, sizeof msg), 0);
+        for (int k = 0; k < n && !found; k++)
+            if (!active[k] && sg_param_mult_choices(p.names[k]) == 0) {
+                memcpy(sets, p.values, sizeof(float) * (size_t)n);                 /* A */
+                memcpy(sets + n, p.values, sizeof(float) * (size_t)n);             /* A, k moved */
+                sets[n + k] = fmodf(p.values[k] + 0.3f, 1.0f);
+                sg_params_sample(&p, (unsigned long long)(9000 + s));              /* B */
+                memcpy(sets + 2 * n, p.values, sizeof(float) * (size_t)n);
+                memcpy(sets + 3 * n, sets, sizeof(float) * (size_t)n);             /* A again */
+                found = 1;
+            }
+    }
+    assert_true(found);
+    sg_params_sample(&p, 77);
+    assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+    int index[4];
+    char msg[512];
+    assert_int_equal(pipeline_distinct_subshaders(g, 4, sets, 4, 4, index, msg, sizeof msg), 2);
+    assert_int_equal(index[0], 0);
+    assert_int_equal(index[1], 2);
+    assert_int_equal(pipeline_distinct_subshaders(g, 4, sets, 4, 1, index, msg, sizeof msg), 1);
+    sg_params now;
+    assert_int_equal(sg_params_from_graph(g, &now, &err), 0);
+    assert_memory_equal(now.values, p.values, sizeof(float) * (size_t)n);
+    sg_params_free(&now);
+    free(sets);
+    sg_params_free(&p);
+    sg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -184,6 +231,7 @@ int main(void)
         cmocka_unit_test(test_half_float),
         cmocka_unit_test(test_find_data),
         cmocka_unit_test(test_inactive_params_change_nothing),
+        cmocka_unit_test(test_distinct_subshaders),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
