@@ -19,6 +19,7 @@
  * Invariant: the report folder is written as OUT.tmp.PID and renamed whole; an error
  * removes what was written.
  */
+#include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <pthread.h>
@@ -362,7 +363,11 @@ static int evaluate_input(worker *w, const input *in, result *r)
     input_work iw = {.w = w, .in = in, .r = r, .seed = input_seed(o->seed, in)};
     render_scene *own = NULL;
     int top_k = o->top_k > 256 ? 256 : o->top_k;
-    float *buf = malloc((size_t)top_k * np * sizeof(float));
+    /* A -topk method asks its source for up to 4 k candidates and renders the first k whose
+     * sub-shaders differ (pipeline_distinct_subshaders): sets that differ only in what the
+     * sub-shader ignores render alike and would waste the budget. */
+    int ask = 4 * top_k > 256 ? 256 : 4 * top_k;
+    float *buf = malloc((size_t)ask * np * sizeof(float));
     long long ids[256];
     r->chosen = malloc(N_METHODS * np * sizeof(float));
     int rc = buf && r->chosen ? 0 : pipeline_error(err, errlen, "out of memory");
@@ -392,11 +397,24 @@ static int evaluate_input(worker *w, const input *in, result *r)
     const float *model_in = in->stored_desc ? in->stored_desc : iw.in_desc[sh->train];
 
     for (int m = 0; m < N_METHODS && rc == 0; m++) {
-        int k = methods[m].topk ? top_k : 1;
-        int n = source_candidates(&iw, methods[m].src, k, model_in, buf, ids, err, errlen);
+        int n = source_candidates(&iw, methods[m].src, methods[m].topk ? ask : 1, model_in, buf,
+                                  ids, err, errlen);
         if (n < 0) {
             rc = -1;
             break;
+        }
+        if (methods[m].topk && n > 1) {
+            int keep[256];
+            n = pipeline_distinct_subshaders(w->graph, o->blender, buf, n, top_k, keep, err, errlen);
+            if (n < 1) {
+                rc = n < 0 ? -1 : pipeline_error(err, errlen, "no distinct candidate");
+                break;
+            }
+            for (int j = 0; j < n; j++) { /* keep[] ascends: keep[j] >= j, compaction in place */
+                assert(keep[j] >= j && (j == 0 || keep[j] > keep[j - 1]));
+                memmove(buf + (size_t)j * np, buf + (size_t)keep[j] * np, np * sizeof(float));
+                ids[j] = ids[keep[j]];
+            }
         }
         /* The pick: the first, or the candidate whose render is nearest the input under the
          * training descriptor (ties: the earlier, i.e. the likelier or nearer). */
