@@ -91,16 +91,11 @@ int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_
     return rc;
 }
 
-/* SplitMix64: the augmentation's random numbers, a pure function of (id, view, draw). */
-static uint64_t splitmix64(uint64_t *state)
+/* The augmentation's random numbers: SplitMix64, a pure function of (id, view, draw). */
+static double uniform01(uint64_t *state)
 {
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
+    return (double)(pipeline_splitmix64(state) >> 11) * 0x1p-53;
 }
-
-static double uniform01(uint64_t *state) { return (double)(splitmix64(state) >> 11) * 0x1p-53; }
 
 static void view_settings_make(const datagen_augment *a, const double base_light[3],
                                const double flash_light[3], long long id, int view,

@@ -179,14 +179,6 @@ typedef struct input_work {
     int n_cands, cap_cands;
 } input_work;
 
-static uint64_t splitmix64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* An input's seed: a function of (--seed, the input's identity) only. Synthetic rows by
  * (id, view); hand-made ones by their set and name. Never datagen's id * 16 + view: a
  * candidate's render must not share the input's noise. */
@@ -201,7 +193,7 @@ static uint64_t input_seed(uint64_t seed, const input *in)
             h = (h ^ (unsigned char)*p) * 0x100000001b3ull; /* FNV-1a */
     }
     uint64_t s = h;
-    return splitmix64(&s);
+    return pipeline_splitmix64(&s);
 }
 
 /* ---------------------------------------------------------------- rendering -------- */
@@ -318,7 +310,7 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
         return 1;
     case SOURCE_RANDOM: {
         uint64_t s = iw->seed ^ 0x72616e646f6d2121ull; /* "random!!" */
-        size_t i = (size_t)(splitmix64(&s) % sh->catalogue_size);
+        size_t i = (size_t)(pipeline_splitmix64(&s) % sh->catalogue_size);
         memcpy(params, predictor_catalogue_params(sh->pred, i, &ids[0]), np * sizeof(float));
         return 1;
     }
@@ -1561,10 +1553,15 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     if (o->top_k < 1 || o->top_k > 256 || !o->preset || (o->blender != 3 && o->blender != 4))
         return pipeline_error(err, errlen, "evaluate: top-k in 1..256, a preset and Blender 3 "
                                            "or 4 are required");
+    /* "report/" names the folder "report": the temporary one is its sibling. */
+    char out_dir[1024];
+    snprintf(out_dir, sizeof out_dir, "%s", o->out_dir);
+    for (size_t n = strlen(out_dir); n > 1 && out_dir[n - 1] == '/'; n--)
+        out_dir[n - 1] = 0;
     struct stat st;
-    if (stat(o->out_dir, &st) == 0)
+    if (stat(out_dir, &st) == 0)
         return pipeline_error(err, errlen, "%s: already exists (remove it or choose another "
-                                           "output folder)", o->out_dir);
+                                           "output folder)", out_dir);
     shared sh;
     memset(&sh, 0, sizeof sh);
     sh.o = o;
@@ -1586,7 +1583,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     report_ctx rc_ctx;
     memset(&rc_ctx, 0, sizeof rc_ctx);
     char tmp_dir[1200];
-    snprintf(tmp_dir, sizeof tmp_dir, "%s.tmp.%ld", o->out_dir, (long)getpid());
+    snprintf(tmp_dir, sizeof tmp_dir, "%s.tmp.%ld", out_dir, (long)getpid());
     char scene_path[1024], flash_path[1024];
     char *model_desc = NULL, *test_desc = NULL;
     cJSON *model_cfg = NULL, *test_cfg = NULL;
@@ -1893,8 +1890,8 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         if (write_text(tmp_dir, "timings.json", t, err, errlen))
             goto done;
     }
-    if (rename(tmp_dir, o->out_dir) != 0) {
-        pipeline_error(err, errlen, "%s: cannot rename %s to it: %s", o->out_dir, tmp_dir,
+    if (rename(tmp_dir, out_dir) != 0) {
+        pipeline_error(err, errlen, "%s: cannot rename %s to it: %s", out_dir, tmp_dir,
                        strerror(errno));
         goto done;
     }

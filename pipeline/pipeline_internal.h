@@ -15,6 +15,16 @@ int pipeline_error(char *err, size_t errlen, const char *fmt, ...)
 /* Seconds on the monotonic clock. */
 double pipeline_now(void);
 
+/* SplitMix64 (Steele, Lea and Flood 2014): the next of a seeded stream of 64-bit values,
+ * for datagen's augmentation and the evaluation's draws. */
+static inline uint64_t pipeline_splitmix64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
 /* Reads a whole file (NUL-terminated; *len excludes the NUL). NULL with a message. */
 char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen);
 

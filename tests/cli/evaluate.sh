@@ -46,7 +46,7 @@ n_inputs=4; [ -n "$quick" ] && n_inputs=2
 cmp -s "$hm/render.exr" "$hm/shifted.exr" && { echo "FAIL: the shifted scene moved nothing"; failures=$((failures + 1)); }
 
 ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft"
-"$imsynth" evaluate $ev --threads 2 -o "$tmp/r2" > "$tmp/out" 2> "$tmp/err"
+"$imsynth" evaluate $ev --threads 2 -o "$tmp/r2/" > "$tmp/out" 2> "$tmp/err"
 check "evaluate, 2 threads" 0 $?
 expect_stderr "progress with an ETA" "ETA"
 for f in report.json summary.csv summary.md inputs.csv sheet-synthetic.png sheet-handmade.png \
