@@ -770,7 +770,8 @@ typedef struct report_ctx {
     const records *rs;
     size_t set_count[N_SETS];
     int floors_small[N_SETS][N_DIST];
-    int *majority_bin; /* n_params (selectors only) */
+    int *majority_bin;      /* n_params (selectors only): the catalogue's most frequent class */
+    double *majority_share; /* its share of the catalogue: the rate of always answering it */
     const char *model_config, *test_config;
     long long test_rows, test_samples, test_min_id, test_max_id;
     int stored_used, handmade_materials;
@@ -826,9 +827,9 @@ static int make_targets(const report_ctx *c, target *t, int max)
         param_figures f = param_summary(c->rs, SET_SYNTHETIC, pred, k,
                                         sg_param_mult_choices(pattern_selectors[p]), c->majority_bin[k],
                                         c->sh->mean[k], np);
-        snprintf(t[n].what, sizeof t[n].what, "%s: accuracy / majority-class rate",
-                 pattern_selectors[p]);
-        t[n].figure = f.majority > 0 ? f.accuracy / f.majority : NAN;
+        snprintf(t[n].what, sizeof t[n].what,
+                 "%s: accuracy / majority-class rate (the catalogue's)", pattern_selectors[p]);
+        t[n].figure = c->majority_share[k] > 0 ? f.accuracy / c->majority_share[k] : NAN;
         t[n].threshold = 2.0;
         t[n].known = isfinite(t[n].figure);
         t[n].met = t[n].known && t[n].figure >= 2.0;
@@ -1018,7 +1019,8 @@ static cJSON *report_json(const report_ctx *c)
                 cJSON_AddNumberToObject(e, "rows", (double)f.rows);
                 if (choices) {
                     cJSON_AddItemToObject(e, "accuracy", number_or_null(f.accuracy));
-                    cJSON_AddItemToObject(e, "majority", number_or_null(f.majority));
+                    cJSON_AddItemToObject(e, "majority_train", number_or_null(c->majority_share[k]));
+                    cJSON_AddItemToObject(e, "majority_test", number_or_null(f.majority));
                     cJSON_AddItemToArray(sel, e);
                 } else {
                     cJSON_AddItemToObject(e, "r2", number_or_null(f.r2));
@@ -1102,17 +1104,19 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
                           fmt_num(f, 100 * ds.beats_nearest, "%.0f%%"));
             }
     }
-    sb_printf(csv, "\nset,method,parameter,role,rows,accuracy,majority,r2,spread\n");
+    sb_printf(csv, "\nset,method,parameter,role,rows,accuracy,majority_train,majority_test,r2,"
+                   "spread\n");
     for (int s = SET_SYNTHETIC; s <= SET_AUGMENTED; s++) {
         if (!c->set_count[s])
             continue;
-        sb_printf(md, "\n## Parameter space: %s\n\nSelectors: accuracy (majority-class rate); "
-                      "values: R^2 about the training mean (spread = std pred / std target), "
-                      "over the rows where the parameter is active.\n\n| parameter | rows |",
+        sb_printf(md, "\n## Parameter space: %s\n\nSelectors: accuracy, beside the majority "
+                      "class's share of the catalogue and of these rows; values: R^2 about the "
+                      "training mean (spread = std pred / std target); over the rows where the "
+                      "parameter is active.\n\n| parameter | rows | majority train/test |",
                   set_names[s]);
         for (int m = 0; m < N_METHODS; m++)
             sb_printf(md, " %s |", methods[m].name);
-        sb_printf(md, "\n|---|---|");
+        sb_printf(md, "\n|---|---|---|");
         for (int m = 0; m < N_METHODS; m++)
             sb_printf(md, "---|");
         sb_printf(md, "\n");
@@ -1128,17 +1132,20 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
                 continue;
             int choices = role == ROLE_SELECTOR ? sg_param_mult_choices(sh->names[k]) : 0;
             size_t rows = 0;
+            double majority_test = NAN;
             strbuf cells = {0};
             for (int m = 0; m < N_METHODS; m++) {
                 param_figures pf = param_summary(c->rs, (input_set)s, m, (int)k, choices,
                                                  c->majority_bin[k], sh->mean[k], np);
                 rows = pf.rows;
-                sb_printf(csv, "%s,%s,%s,%s,%zu,%.6g,%.6g,%.6g,%.6g\n", set_names[s],
+                sb_printf(csv, "%s,%s,%s,%s,%zu,%.6g,%.6g,%.6g,%.6g,%.6g\n", set_names[s],
                           methods[m].name, sh->names[k], choices ? "selector" : "value", pf.rows,
-                          pf.accuracy, pf.majority, pf.r2, pf.spread);
-                if (choices)
-                    sb_printf(&cells, " %s (%s) |", fmt_num(a, pf.accuracy, "%.2f"),
-                              fmt_num(b, pf.majority, "%.2f"));
+                          pf.accuracy, choices ? c->majority_share[k] : NAN, pf.majority, pf.r2,
+                          pf.spread);
+                if (choices) {
+                    sb_printf(&cells, " %s |", fmt_num(a, pf.accuracy, "%.2f"));
+                    majority_test = pf.majority;
+                }
                 else {
                     sb_printf(&cells, " %s (%s) |", fmt_num(a, pf.r2, "%.2f"),
                               fmt_num(b, pf.spread, "%.2f"));
@@ -1150,10 +1157,14 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
             }
             if (!choices)
                 nv++;
-            sb_printf(md, "| %s | %zu |%s\n", sh->names[k], rows, cells.s ? cells.s : "");
+            char maj[64] = "";
+            if (choices)
+                snprintf(maj, sizeof maj, "%.2f/%s", c->majority_share[k],
+                         fmt_num(a, majority_test, "%.2f"));
+            sb_printf(md, "| %s | %zu | %s |%s\n", sh->names[k], rows, maj, cells.s ? cells.s : "");
             free(cells.s);
         }
-        sb_printf(md, "| **median R^2 (spread) of values** | |");
+        sb_printf(md, "| **median R^2 (spread) of values** | | |");
         for (int m = 0; m < N_METHODS; m++) {
             sb_printf(md, " %s (%s) |",
                       fmt_num(a, r2[m] ? evaluate_quantile(r2[m], nv, 0.5) : NAN, "%.2f"),
@@ -1845,7 +1856,9 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     }
     /* The majority class of each selector, over the catalogue (every sample; ties: the
      * lower class). */
-    if (!(rc_ctx.majority_bin = calloc((size_t)sh.n_params, sizeof(int)))) {
+    rc_ctx.majority_bin = calloc((size_t)sh.n_params, sizeof(int));
+    rc_ctx.majority_share = calloc((size_t)sh.n_params, sizeof(double));
+    if (!rc_ctx.majority_bin || !rc_ctx.majority_share) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -1859,6 +1872,8 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         for (int b = 1; b < choices && b < 64; b++)
             if (count[b] > count[rc_ctx.majority_bin[k]])
                 rc_ctx.majority_bin[k] = b;
+        rc_ctx.majority_share[k] =
+            (double)count[rc_ctx.majority_bin[k]] / (double)sh.catalogue_size;
     }
     if (write_report(&rc_ctx, err, errlen))
         goto done;
@@ -1911,6 +1926,7 @@ done:
     free(hand);
     records_free(&rs);
     free(rc_ctx.majority_bin);
+    free(rc_ctx.majority_share);
     for (int t = 0; t < n_workers; t++)
         worker_free(&workers[t]);
     free(workers);

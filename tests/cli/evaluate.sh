@@ -21,12 +21,13 @@ expect_stderr "preset message lists the presets" "draft, datagen, converged"
 # without flash, and no 1-thread run; the full run takes 4 (an augmented view, a flash one).
 quick=${IMSYNTH_TEST_QUICK:-}
 augment="--augment views=1,flash=1,rotate=45"; [ -n "$quick" ] && augment=""
-"$imsynth" datagen --out "$tmp/train.sqlite" --count 8 --preset draft --quiet
+n_train=8 comps=4; [ -n "$quick" ] && n_train=5 comps=2
+"$imsynth" datagen --out "$tmp/train.sqlite" --count $n_train --preset draft --quiet
 check "a draft training set" 0 $?
 "$imsynth" datagen --out "$tmp/test.sqlite" --count 1 --first-id 1000000 --preset draft \
     $augment --quiet
 check "a test set of one sample" 0 $?
-"$imsynth" fit-predictor --dataset "$tmp/train.sqlite" --components 4 --hidden 8 --epochs 2 \
+"$imsynth" fit-predictor --dataset "$tmp/train.sqlite" --components $comps --hidden 8 --epochs 2 \
     --batch 4 --val-fraction 0.25 --quiet -o "$tmp/model"
 check "a tiny model" 0 $?
 
@@ -76,7 +77,7 @@ awk -F, '$4 == "mobilenetv2" { d[$2 "/" $3] = $7; if ($3 ~ /topk/) n[$2 "/" $3] 
           exit bad }' "$csv"
 check "top-k picks by the training descriptor (never worse than its first)" 0 $?
 # The mean method's R^2 is 0 wherever defined: R^2 is taken about the training mean.
-awk -F, '$2 == "mean" && $4 == "value" && $8 !~ /nan/ && $8 != 0 { print; bad = 1 } END { exit bad }' \
+awk -F, '$2 == "mean" && $4 == "value" && $9 !~ /nan/ && $9 != 0 { print; bad = 1 } END { exit bad }' \
     "$tmp/r2/summary.csv"
 check "the mean method's R^2 is 0" 0 $?
 if [ -z "$quick" ]; then
