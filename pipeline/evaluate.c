@@ -1323,13 +1323,15 @@ static int write_report(const report_ctx *c, char *err, size_t errlen)
     int rc = write_text(c->dir, "report.json", json, err, errlen);
     free(json);
     strbuf csv = {0}, md = {0}, html = {0};
-    sb_printf(&md, "# imsynth evaluate\n\nModel %s (%s descriptor, catalogue of %zu); test %s "
-                   "(%lld rows of %lld samples, ids %lld-%lld); hand-made %s (%d materials); "
-                   "preset %s, top-k %d, seed %llu.\n\n",
-              c->o->model_dir, dist_names[c->sh->train], c->sh->catalogue_size,
-              c->o->test_path ? c->o->test_path : "-", c->test_rows, c->test_samples,
-              c->test_min_id, c->test_max_id, c->o->handmade_dir ? c->o->handmade_dir : "-",
-              c->handmade_materials, c->o->preset->name, c->o->top_k,
+    sb_printf(&md, "# imsynth evaluate\n\nModel %s (%s descriptor, catalogue of %zu); ",
+              c->o->model_dir, dist_names[c->sh->train], c->sh->catalogue_size);
+    if (c->o->test_path)
+        sb_printf(&md, "test %s (%lld rows of %lld samples, ids %lld-%lld); ", c->o->test_path,
+                  c->test_rows, c->test_samples, c->test_min_id, c->test_max_id);
+    if (c->o->handmade_dir)
+        sb_printf(&md, "hand-made %s (%d materials); ", c->o->handmade_dir,
+                  c->handmade_materials);
+    sb_printf(&md, "preset %s, top-k %d, seed %llu.\n\n", c->o->preset->name, c->o->top_k,
               (unsigned long long)c->o->seed);
     summary_tables(c, &csv, &md);
     if (csv.failed || md.failed)
