@@ -953,6 +953,20 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(model, "descriptor", dist_names[sh->train]);
     cJSON_AddNumberToObject(model, "catalogue_size", (double)sh->catalogue_size);
     cJSON_AddItemToObject(model, "dataset_config", cJSON_Parse(c->model_config ? c->model_config : "null"));
+    /* What the model is (model.json's network, input transform, training settings, figures). */
+    char mj_path[1200];
+    snprintf(mj_path, sizeof mj_path, "%s/model.json", o->model_dir);
+    size_t mj_len;
+    char *mj = pipeline_read_file(mj_path, &mj_len, NULL, 0);
+    cJSON *mjo = mj ? cJSON_Parse(mj) : NULL;
+    free(mj);
+    static const char *const model_keys[] = {"format", "network", "transform", "training", "result"};
+    for (size_t k = 0; mjo && k < sizeof model_keys / sizeof *model_keys; k++) {
+        cJSON *item = cJSON_GetObjectItemCaseSensitive(mjo, model_keys[k]);
+        if (item)
+            cJSON_AddItemToObject(model, model_keys[k], cJSON_Duplicate(item, 1));
+    }
+    cJSON_Delete(mjo);
     cJSON *test = cJSON_AddObjectToObject(root, "test");
     cJSON_AddNumberToObject(test, "rows", (double)c->test_rows);
     cJSON_AddNumberToObject(test, "samples", (double)c->test_samples);
