@@ -25,12 +25,27 @@ static const char *const help =
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
     "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n";
 
+/* A parameter set as JSON, each value in the shortest form that reads back as the same
+ * float (sg_params_to_json's), so a file written here binds exactly the predicted values. */
 static cJSON *params_object(const char *const *names, const float *v, int n)
 {
-    cJSON *o = cJSON_CreateObject();
-    for (int i = 0; i < n; i++)
-        cJSON_AddItemToObject(o, names[i], cJSON_CreateNumber((double)v[i]));
-    return o;
+    sg_params p = {.n = n, .names = (char **)names, .values = (float *)v};
+    char *text = sg_params_to_json(&p);
+    cJSON *o = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    return o ? o : cJSON_CreateObject();
+}
+
+static int write_params_atomic(const char *path, const char *const *names, const float *v,
+                               int n, char *err, size_t errlen)
+{
+    sg_params p = {.n = n, .names = (char **)names, .values = (float *)v};
+    sg_error e;
+    if (sg_params_write_file(path, &p, &e) < 0) {
+        snprintf(err, errlen, "%s", e.msg);
+        return -1;
+    }
+    return 0;
 }
 
 static int write_json_atomic(const char *path, cJSON *j, char *err, size_t errlen)
@@ -130,18 +145,15 @@ int cmd_predict_params(int argc, char **argv)
     if (got < 0)
         goto fail;
     const char *const *names = predictor_param_names(p);
-    cJSON *top = params_object(names, params, np);
-    if (out ? write_json_atomic(out, top, err, sizeof err) : 0) {
-        cJSON_Delete(top);
+    if (out && write_params_atomic(out, names, params, np, err, sizeof err))
         goto fail;
-    }
     if (!out) {
-        char *text = cJSON_Print(top);
+        sg_params top = {.n = np, .names = (char **)names, .values = params};
+        char *text = sg_params_to_json(&top);
         if (text)
-            puts(text);
+            fputs(text, stdout);
         free(text);
     }
-    cJSON_Delete(top);
     if (hyp_path) {
         hyp = cJSON_CreateObject();
         cJSON_AddStringToObject(hyp, "image", image_path);

@@ -152,11 +152,15 @@ static int read_rows(const char *path, double fraction, long long max_ids, rowse
     int got;
     long long ids_seen = 0, last_id = -1;
     while ((got = dataset_iter_next(it, &row, err, errlen)) == 1) {
+        int to_val = fraction >= 0 && is_validation_id(row.id, fraction);
         if (row.id != last_id) {
             last_id = row.id;
-            if (max_ids > 0 && ++ids_seen > max_ids)
-                break;
+            ids_seen += !to_val;
         }
+        // max_ids limits the training ids only: the validation rows stay the same whatever
+        // the training size, so a learning curve compares like with like
+        if (max_ids > 0 && !to_val && ids_seen > max_ids)
+            continue;
         for (size_t j = 0; j < info.descriptor_size; j++)
             if (!isfinite(row.descriptor[j])) {
                 pipeline_error(err, errlen, "%s: id %lld view %d: descriptor value %zu is not "
@@ -164,7 +168,7 @@ static int read_rows(const char *path, double fraction, long long max_ids, rowse
                                path, row.id, row.view, j);
                 goto done;
             }
-        rowset *dst = fraction >= 0 && is_validation_id(row.id, fraction) ? val : train;
+        rowset *dst = to_val ? val : train;
         if (rowset_push(dst, &row, info.descriptor_size, np)) {
             pipeline_error(err, errlen, "%s: out of memory at row %zu", path,
                            train->n + (val ? val->n : 0));
