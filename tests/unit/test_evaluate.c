@@ -2,7 +2,8 @@
  * The evaluation's arithmetic (pipeline.h, "evaluation"): the Gram distance (0 for equal,
  * symmetric, scale-free per layer, a small case worked by hand), the colour term, the floor's
  * epsilon, quantiles against numpy's linear rule, R^2 (1 for the truth, 0 for the reference
- * mean, below 0 for any other constant), the spread; and the contact sheet's font.
+ * mean, below 0 for any other constant), the spread; the contact sheet's font; a stored
+ * view's settings and scene (the scene candidates are rendered in).
  */
 #include <math.h>
 #include <setjmp.h>
@@ -219,12 +220,56 @@ static void test_sheet_label(void **state)
     image_free(&sheet);
 }
 
+/* A stored row's view (what datagen writes as view_json) parses back to its settings, and
+ * its exposure and white balance scale a linear image; a malformed one is a clear error. */
+static void test_view_parse(void **state)
+{
+    (void)state;
+    pipeline_view v;
+    char err[512];
+    const char *json = "{\"scene\":\"flash\",\"light\":[0.08,0.06,2],\"exposure\":1,"
+                       "\"wb\":[2,1,0.5],\"rotation_z\":0.25,\"shift\":[0.5,-0.25]}";
+    assert_int_equal(pipeline_view_parse(json, &v, err, sizeof err), 0);
+    assert_int_equal(v.flash, 1);
+    assert_true(v.light[0] == 0.08 && v.light[1] == 0.06 && v.light[2] == 2.0);
+    assert_true(v.exposure == 1.0 && v.wb[0] == 2.0 && v.wb[2] == 0.5);
+    assert_true(v.rotate == 0.25 && v.shift[0] == 0.5 && v.shift[1] == -0.25);
+    image img;
+    assert_int_equal(image_alloc(&img, 1, 1, 3), 0);
+    img.pixels[0] = img.pixels[1] = img.pixels[2] = 0.25f;
+    pipeline_view_apply_gain(&v, &img); /* x 2^1 x (2, 1, 0.5) */
+    assert_true(img.pixels[0] == 1.0f && img.pixels[1] == 0.5f && img.pixels[2] == 0.25f);
+    image_free(&img);
+
+    /* Rows made before rotate/shift existed: no texture transform. */
+    const char *old = "{\"scene\":\"plain\",\"light\":[0.45,0.35,0.55],\"exposure\":0,"
+                      "\"wb\":[1,1,1]}";
+    assert_int_equal(pipeline_view_parse(old, &v, err, sizeof err), 0);
+    assert_true(v.flash == 0 && v.rotate == 0.0 && v.shift[0] == 0.0 && v.light[2] == 0.55);
+
+    /* The scene of a view: the light moved, the texture transform set. */
+    const char *scene = "{\"lights\":[{\"location\":[0,0,1]}],\"objects\":[{\"name\":\"Plane\"}]}";
+    assert_int_equal(pipeline_view_parse(json, &v, err, sizeof err), 0);
+    char *text = pipeline_scene_for_view(scene, &v);
+    assert_non_null(text);
+    assert_non_null(strstr(text, "\"location\":[0.08,0.06,2]"));
+    assert_non_null(strstr(text, "\"transform\":{\"location\":[0.5,-0.25,0]"));
+    free(text);
+    assert_null(pipeline_scene_for_view("{\"lights\":[]}", &v));
+
+    assert_int_equal(pipeline_view_parse("{\"scene\":\"studio\"}", &v, err, sizeof err), -1);
+    assert_non_null(strstr(err, "studio"));
+    assert_int_equal(pipeline_view_parse("not json", &v, err, sizeof err), -1);
+    assert_int_equal(pipeline_view_parse(NULL, &v, err, sizeof err), -1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_gram_distance),  cmocka_unit_test(test_colour_distance),
         cmocka_unit_test(test_floor_epsilon),  cmocka_unit_test(test_quantiles),
         cmocka_unit_test(test_r2_and_spread),  cmocka_unit_test(test_sheet_label),
+        cmocka_unit_test(test_view_parse),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
