@@ -1095,7 +1095,11 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
     sb_printf(csv, "set,method,distance,inputs,median,p10,p90,beats_mean,beats_nearest\n");
     sb_printf(md, "## Image space\n\nNormalised distances (distance / the target's floor; 1 = as "
                   "close as two renders of the target itself at other pattern offsets). "
-                  "Training descriptor: %s; judge: %s.\n",
+                  "Gram distance (mobilenetv2, vgg19): the mean over the descriptor's layers of "
+                  "||a_l - b_l|| / (||a_l|| + ||b_l||); colour: mean |a - b| of the 32x32 box "
+                  "averages of the centre 224 crops (linear RGB in [0, 1]); a floor below %g "
+                  "counts as %g. Training descriptor: %s; judge: %s.\n",
+              EVALUATE_FLOOR_EPSILON, EVALUATE_FLOOR_EPSILON,
               dist_names[sh->train], dist_names[sh->train == DIST_VGG ? DIST_MOBILENET : DIST_VGG]);
     for (int s = 0; s < N_SETS; s++) {
         if (!c->set_count[s])
