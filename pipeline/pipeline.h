@@ -344,7 +344,7 @@ typedef struct predictor_fit_options {
     long long max_ids;            /* 0: every sample; else the first max_ids ids */
     const char *out_dir;          /* must not exist */
     int components;               /* PCA components (the network's inputs) */
-    const char *hidden;           /* hidden widths, "512-512" */
+    const char *hidden;           /* hidden widths, "1024-1024" */
     int epochs, batch;
     float lr, weight_decay, dropout;
     float value_weight;           /* the value head's loss weight (selectors' sum to 1) */

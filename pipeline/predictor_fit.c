@@ -34,12 +34,12 @@ void predictor_fit_defaults(predictor_fit_options *o)
     memset(o, 0, sizeof *o);
     o->val_fraction = 0.05;
     o->components = 256;
-    o->hidden = "512-512";
+    o->hidden = "1024-1024";
     o->epochs = 60;
     o->batch = 128;
     o->lr = 1e-3f;
     o->weight_decay = 1e-4f;
-    o->dropout = 0.1f;
+    o->dropout = 0.5f;
     o->value_weight = 10.0f;
     o->seed = 1;
 }
