@@ -15,7 +15,8 @@ Coordinate node's Object output, i.e. (x, y, 0) in metres on the plane). Whateve
 material does downstream is a function of that node's output, so adding (dx, dy, 0) to
 its Location translates the whole pattern by (-dx, -dy) m on the plane: the same material
 with its texture moved (render_handmade.py --shift). The Mapping node's base Location has
-z = BASE_Z so that 3D textures are sliced off their lattice planes.
+z = BASE_Z so that 3D textures are sliced off their lattice planes. (brushed_metal also
+reads a Tangent from the UV map: a direction, the same everywhere, that a shift leaves.)
 
 --save writes the named materials (all by default) to a .blend (fake users, so they are
 kept); --scene also builds DESIGN.md's scene with the first one on the plane.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Render the hand-made test materials of issue 15 into tests/handmade/<name>/.
 
-    python3 blender/render_handmade_set.py [NAME ...] [--samples 256] [--blender 4.3]
+    python3 blender/render_handmade_set.py [NAME ...] [--samples 128] [--blender 4.3]
                                            [--out tests/handmade] [--threads 0]
 
 For each material of blender/handmade_materials.py (all by default), in Blender 4.3 (the
@@ -15,6 +15,8 @@ trixie chroot /srv/trixie; --blender 3.4: `blender` on PATH) with Cycles:
                other noise);
 - flash.exr    assets/scene-flash.json (point light beside the camera, as a phone flash),
                seed 3;
+- render-b.exr render.exr again with seed 4: render.exr against it is the Monte Carlo
+               noise alone, the part of the floor that is not the pattern moving;
 - render.json  Blender version, samples, seeds, shift and seconds of each render.
 Then tests/handmade/sheet.png: the previews, 128 px each, in the order of --list.
 Existing files are kept, so a stopped run resumes (every file is written to a temporary
@@ -34,13 +36,14 @@ SCRIPTS = ("render_handmade.py", "handmade_materials.py", "import_material.py",
            "compat_noise.py")
 CHROOT = "/srv/trixie"
 # (0.37, 0.23) m: 47 x 29 px, far more than any material's grain yet well under the
-# plane, and commensurate with none of the periodic layouts (tiles 0.25, bricks 0.24 +
-# 0.012 by 0.085 + 0.012, planks 0.14, weave 0.05), so the shifted image is the same
-# material in another arrangement, never the same picture.
+# plane, and commensurate with none of the periodic layouts (tiles 0.25, bricks 0.24 in
+# rows of 0.085, planks 0.14, weave 0.05), so the shifted image is the same material in
+# another arrangement, never the same picture.
 SHIFT = (0.37, 0.23)
 # file -> (seed, shift or None, scene file or None)
 RENDERS = {"render": (1, None, None), "shifted": (2, SHIFT, None),
-           "flash": (3, None, os.path.join(REPO, "assets", "scene-flash.json"))}
+           "flash": (3, None, os.path.join(REPO, "assets", "scene-flash.json")),
+           "render-b": (4, None, None)}
 
 
 class Blender:
@@ -136,7 +139,7 @@ def update_json(path, key, value):
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("names", nargs="*")
-    p.add_argument("--samples", type=int, default=256)
+    p.add_argument("--samples", type=int, default=128)
     p.add_argument("--blender", default="4.3", help="3.4 (on PATH) or 4.3 (the chroot)")
     p.add_argument("--out", default=os.path.join(REPO, "tests", "handmade"))
     p.add_argument("--threads", type=int, default=0)
