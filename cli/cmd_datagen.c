@@ -106,20 +106,6 @@ static void progress(void *ctx, long long done, long long todo, const double sta
     fflush(stderr);
 }
 
-static int parse_ll(const char *sub, const char *opt, const char *s, long long lo, long long hi,
-                    long long *out)
-{
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || *end || !*s || v < lo || v > hi) {
-        cli_error(sub, "%s: expected an integer in [%lld, %lld], got \"%s\"", opt, lo, hi, s);
-        return -1;
-    }
-    *out = v;
-    return 0;
-}
-
 /* "i/n", with i read from the scheduler's variable when it is SLURM or JOB_COMPLETION. */
 static int parse_shard(const char *sub, const char *s, int *index, int *count)
 {
@@ -141,8 +127,8 @@ static int parse_shard(const char *sub, const char *s, int *index, int *count)
         }
     }
     long long i, n;
-    if (parse_ll(sub, "--shard n", slash + 1, 1, 1 << 20, &n) ||
-        parse_ll(sub, "--shard i", is, 0, n - 1, &i))
+    if (cli_parse_ll(sub, "--shard n", slash + 1, 1, 1 << 20, &n) ||
+        cli_parse_ll(sub, "--shard i", is, 0, n - 1, &i))
         return -1;
     *index = (int)i;
     *count = (int)n;
@@ -179,25 +165,25 @@ int cmd_datagen(int argc, char **argv)
         else if (!strcmp(a, "--out") || !strcmp(a, "-o"))
             o.out_path = v;
         else if (!strcmp(a, "--count")) {
-            if (parse_ll(sub, a, v, 0, 1LL << 40, &o.count))
+            if (cli_parse_ll(sub, a, v, 0, 1LL << 40, &o.count))
                 return EXIT_USAGE;
             have_count = 1;
         } else if (!strcmp(a, "--first-id")) {
-            if (parse_ll(sub, a, v, 0, 1LL << 50, &o.first_id))
+            if (cli_parse_ll(sub, a, v, 0, 1LL << 50, &o.first_id))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--shard")) {
             if (parse_shard(sub, v, &o.shard_index, &o.shard_count))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--threads")) {
-            if (parse_ll(sub, a, v, 0, 256, &x))
+            if (cli_parse_ll(sub, a, v, 0, 256, &x))
                 return EXIT_USAGE;
             o.threads = (int)x;
         } else if (!strcmp(a, "--batch")) {
-            if (parse_ll(sub, a, v, 1, 4096, &x))
+            if (cli_parse_ll(sub, a, v, 1, 4096, &x))
                 return EXIT_USAGE;
             o.batch = (int)x;
         } else if (!strcmp(a, "--blender")) {
-            if (parse_ll(sub, a, v, 3, 4, &x))
+            if (cli_parse_ll(sub, a, v, 3, 4, &x))
                 return EXIT_USAGE;
             o.blender = (int)x;
         } else if (!strcmp(a, "--preset")) {

@@ -66,18 +66,6 @@ static const char *const help =
     "  --scene S.json        default assets/scene.json\n"
     "  --flash-scene S.json  default assets/scene-flash.json\n";
 
-static int parse_ll(const char *sub, const char *opt, const char *s, long long lo, long long hi,
-                    long long *v)
-{
-    char *end;
-    *v = strtoll(s, &end, 10);
-    if (!*s || *end || *v < lo || *v > hi) {
-        cli_error(sub, "%s: expected an integer in [%lld, %lld], got \"%s\"", opt, lo, hi, s);
-        return -1;
-    }
-    return 0;
-}
-
 static void progress(void *ctx, long long done, long long todo, double seconds)
 {
     *(int *)ctx = done < todo; /* a line to end before an error message */
@@ -133,23 +121,23 @@ int cmd_evaluate(int argc, char **argv)
                 return EXIT_USAGE;
             }
         } else if (!strcmp(a, "--top-k")) {
-            if (parse_ll(sub, a, v, 1, 256, &n))
+            if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.top_k = (int)n;
         } else if (!strcmp(a, "--limit")) {
-            if (parse_ll(sub, a, v, 1, INT64_MAX, &n))
+            if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))
                 return EXIT_USAGE;
             o.limit = n;
         } else if (!strcmp(a, "--threads")) {
-            if (parse_ll(sub, a, v, 1, 256, &n))
+            if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.threads = (int)n;
         } else if (!strcmp(a, "--seed")) {
-            if (parse_ll(sub, a, v, 0, INT64_MAX, &n))
+            if (cli_parse_ll(sub, a, v, 0, INT64_MAX, &n))
                 return EXIT_USAGE;
             o.seed = (uint64_t)n;
         } else if (!strcmp(a, "--sheet")) {
-            if (parse_ll(sub, a, v, 1, 256, &n))
+            if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.sheet_inputs = (int)n;
         } else if (!strcmp(a, "--blender")) {
