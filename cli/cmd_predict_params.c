@@ -55,19 +55,17 @@ static int write_json_atomic(const char *path, cJSON *j, char *err, size_t errle
         snprintf(err, errlen, "out of memory");
         return -1;
     }
-    char tmp[1100];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
-    int bad = !f || fputs(text, f) < 0 || fputc('\n', f) < 0;
-    if (f)
-        bad |= fclose(f) != 0;
-    free(text);
-    if (bad || rename(tmp, path)) {
-        remove(tmp);
-        snprintf(err, errlen, "%s: cannot write", path);
+    size_t n = strlen(text);
+    char *line = realloc(text, n + 2); /* end the file with a newline, as text files do */
+    if (!line) {
+        free(text);
+        snprintf(err, errlen, "out of memory");
         return -1;
     }
-    return 0;
+    memcpy(line + n, "\n", 2);
+    int rc = pipeline_write_text_atomic(path, line, err, errlen);
+    free(line);
+    return rc;
 }
 
 int cmd_predict_params(int argc, char **argv)

@@ -263,6 +263,10 @@ int dataset_contact_sheet(dataset *d, const char *png_path, int count, int cols,
  * shrinking, bilinear when enlarging). out is allocated. Returns 0, or -1 with a message. */
 int pipeline_prepare_input(const image *in, int size, image *out, char *err, size_t errlen);
 
+/* Writes text to path through path.tmp renamed into place: the file is whole or absent.
+ * Returns 0, or -1 with a message naming the file. */
+int pipeline_write_text_atomic(const char *path, const char *text, char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- loss curves ------ */
 
 /* A training run's loss curve as a small SVG line chart: log-scale training loss over n

@@ -78,7 +78,6 @@ int predictor_transform_fit(float *X, size_t n, size_t d, float *scale, float *m
 /* Tensor `name` of exactly count floats, every one finite. */
 int predictor_read_tensor(const nn_safetensors *st, const char *name, float *out, size_t count,
                           char *err, size_t errlen);
-int predictor_write_text(const char *path, const char *text, char *err, size_t errlen);
 int predictor_path_join(char *out, size_t len, const char *dir, const char *name, char *err,
                         size_t errlen);
 

@@ -197,22 +197,6 @@ int predictor_path_join(char *out, size_t len, const char *dir, const char *name
     return 0;
 }
 
-int predictor_write_text(const char *path, const char *text, char *err, size_t errlen)
-{
-    char tmp[1200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
-    if (!f)
-        return pipeline_error(err, errlen, "%s: %s", tmp, strerror(errno));
-    int bad = fputs(text, f) < 0;
-    bad |= fclose(f) != 0;
-    if (bad || rename(tmp, path)) {
-        remove(tmp);
-        return pipeline_error(err, errlen, "%s: write error (disk full?)", path);
-    }
-    return 0;
-}
-
 /* Reads tensor `name` of exactly `count` floats (any shape) from st. */
 int predictor_read_tensor(const nn_safetensors *st, const char *name, float *out, size_t count,
                        char *err, size_t errlen)

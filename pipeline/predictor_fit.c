@@ -406,7 +406,7 @@ static int write_losses(const char *dir, const double *train_loss, const double 
         len += (size_t)snprintf(csv + len, cap - len, "%d,%.9g,%.9g,%.6g,%.6g\n", e + 1,
                                 train_loss[e], val_loss[e], acc[e], r2[e]);
     int rc = predictor_path_join(path, sizeof path, dir, "losses.csv", err, errlen) ||
-             predictor_write_text(path, csv, err, errlen);
+             pipeline_write_text_atomic(path, csv, err, errlen);
     free(csv);
     if (rc)
         return -1;
@@ -691,7 +691,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         text = state_json(settings, &st); /* epochs_done 0: a kill from here on resumes */
         if (write_transform(path, scale, mean, std, comp, var, mean_p, d, k, np, msg,
                             sizeof msg) ||
-            !text || predictor_write_text(state_path, text, msg, sizeof msg)) {
+            !text || pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
             goto done;
         }
@@ -832,7 +832,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         free(text);
         text = state_json(settings, &st);
         if (nn_mlp_save(&net, &opt, path, msg, sizeof msg) ||
-            predictor_write_text(state_path, text, msg, sizeof msg)) {
+            pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", msg);
             goto done;
         }
@@ -875,7 +875,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm, arch,
                       heads_spec, pipeline_now() - t_start);
     snprintf(path, sizeof path, "%s/model.json", partial);
-    if (!text || predictor_write_text(path, text, msg, sizeof msg)) {
+    if (!text || pipeline_write_text_atomic(path, text, msg, sizeof msg)) {
         pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
         goto done;
     }

@@ -146,3 +146,19 @@ int pipeline_write_loss_svg(const char *path, const double *loss, const double *
     }
     return 0;
 }
+
+int pipeline_write_text_atomic(const char *path, const char *text, char *err, size_t errlen)
+{
+    char tmp[1200];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *f = fopen(tmp, "w");
+    if (!f)
+        return pipeline_error(err, errlen, "%s: %s", tmp, strerror(errno));
+    int bad = fputs(text, f) < 0;
+    bad |= fclose(f) != 0;
+    if (bad || rename(tmp, path)) {
+        remove(tmp);
+        return pipeline_error(err, errlen, "%s: write error (disk full?)", path);
+    }
+    return 0;
+}
