@@ -29,6 +29,7 @@ static const subcommand subcommands[] = {
     {"infer", cmd_infer, "predictions of a trained model for X.npy, as .npy"},
     {"forest", cmd_forest, "fit a multi-output random forest, rank features, predict (.npy)"},
     {"fit-predictor", cmd_fit_predictor, "train the parameter predictor on a dataset (model dir)"},
+    {"predict", cmd_predict, "an image in, a Blender material out (the main job)"},
     {"predict-params", cmd_predict_params, "super-shader parameters for an image (top-k, JSON)"},
     {"evaluate", cmd_evaluate, "a model against test inputs: every method, parameter and image space"},
 };

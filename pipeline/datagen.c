@@ -43,6 +43,17 @@ const datagen_preset *datagen_preset_find(const char *name)
 
 const char *datagen_preset_names(void) { return "draft, datagen, converged"; }
 
+void datagen_preset_render_options(const datagen_preset *p, int blender, render_options *ro)
+{
+    render_options_default(ro);
+    ro->mode = RENDER_FAST;
+    ro->spp = p->spp;
+    ro->max_spp = p->max_spp;
+    ro->light_samples = p->light_samples;
+    ro->noise_target = p->noise_target;
+    ro->blender = blender;
+}
+
 /* ---------------------------------------------------------------- augmentation ----- */
 
 int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_t errlen)
@@ -362,13 +373,7 @@ static int make_view(worker *w, const render_material *m, long long id, int view
         scene = own;
     }
     render_options ro;
-    render_options_default(&ro);
-    ro.mode = RENDER_FAST;
-    ro.spp = o->preset->spp;
-    ro.max_spp = o->preset->max_spp;
-    ro.light_samples = o->preset->light_samples;
-    ro.noise_target = o->preset->noise_target;
-    ro.blender = o->blender;
+    datagen_preset_render_options(o->preset, o->blender, &ro);
     ro.threads = 1;
     ro.seed = (uint64_t)id << 4 | (uint64_t)view;
     image img;

@@ -212,13 +212,7 @@ static int render_params(input_work *iw, const float *params, image *out, char *
     if (!m)
         return -1;
     render_options ro;
-    render_options_default(&ro);
-    ro.mode = RENDER_FAST;
-    ro.spp = sh->o->preset->spp;
-    ro.max_spp = sh->o->preset->max_spp;
-    ro.light_samples = sh->o->preset->light_samples;
-    ro.noise_target = sh->o->preset->noise_target;
-    ro.blender = sh->o->blender;
+    datagen_preset_render_options(sh->o->preset, sh->o->blender, &ro);
     ro.threads = 1;
     ro.seed = iw->seed;
     char msg[768];

@@ -89,6 +89,8 @@ typedef struct datagen_preset {
 const datagen_preset *datagen_preset_find(const char *name);
 /* Comma-separated list of preset names, for messages and --help. */
 const char *datagen_preset_names(void);
+/* Render options of a preset (fast mode), with render_options_default's threads and seed. */
+void datagen_preset_render_options(const datagen_preset *p, int blender, render_options *ro);
 
 typedef enum datagen_images { DATAGEN_IMAGES_NONE, DATAGEN_IMAGES_PNG16, DATAGEN_IMAGES_EXR } datagen_images;
 /* What datagen stores as a sample's descriptor (float16): nothing, the VGG19 Gram
@@ -439,5 +441,103 @@ typedef struct evaluate_options {
  * The folder is written as o->out_dir.tmp.PID and renamed when complete; on error nothing
  * is left. Returns 0, or -1 with a message naming the file and the place. */
 int evaluate_run(const evaluate_options *o, char *err, size_t errlen);
+
+/* ---------------------------------------------------------------- refinement ------- */
+/*
+ * A derivative-free search over parameters in [0, 1] (refine.c): the step after the
+ * predictor's and the catalogue's candidates, in `predict` and `evaluate`. The caller owns
+ * the loss (render, describe, compare) and says, for the current point, which parameters
+ * matter (pipeline_active_params); the search moves only those.
+ */
+typedef enum refine_kind {
+    REFINE_VALUE,    /* in [0, 1], clamped */
+    REFINE_CIRCULAR, /* in [0, 1), 0 and 1 the same (a hue): wrapped */
+    REFINE_SELECTOR, /* choices[i] bins; the value is its bin's centre */
+    REFINE_FIXED     /* never moved (Pattern Offset: a seed, not a look) */
+} refine_kind;
+
+typedef struct refine_space {
+    int n;
+    const refine_kind *kind; /* n */
+    const int *choices;      /* n: a selector's number of choices (others ignored) */
+} refine_space;
+
+typedef enum refine_method { REFINE_COORDINATE, REFINE_ES, REFINE_RANDOM, REFINE_N_METHODS } refine_method;
+extern const char *const refine_method_names[REFINE_N_METHODS];
+/* The method named `name` ("coordinate", "es", "random"), or -1. */
+int refine_method_parse(const char *name);
+
+typedef struct refine_options {
+    refine_method method;
+    int budget;      /* loss evaluations in all, the start's included (>= 1) */
+    double step;     /* a value's first step (coordinate) or the first sigma (es) */
+    double min_step; /* steps never shrink below this */
+    uint64_t seed;
+} refine_options;
+/* coordinate, budget 48, step 0.25, min_step 1/128, seed 1. */
+void refine_options_default(refine_options *o);
+
+/* The loss of a parameter set (lower is better): 0, or -1 with a message. */
+typedef int (*refine_loss_fn)(void *ctx, const float *params, double *loss, char *err,
+                              size_t errlen);
+/* Which parameters matter at params (active[i] 0 or 1): 0, or -1 with a message. */
+typedef int (*refine_active_fn)(void *ctx, const float *params, uint8_t *active, char *err,
+                                size_t errlen);
+
+typedef struct refine_result {
+    double *curve; /* budget entries, the first `evals`: best loss after each evaluation */
+    int evals, accepted;
+    int start_movable; /* parameters the search could move at the start */
+    double start_loss, best_loss;
+} refine_result;
+
+/* Searches from params (in: the start, every value in [0, 1]; out: the best found) with
+ * o->method, deterministically for o->seed. The result's curve is malloc'd: free with
+ * refine_result_free. Returns 0, or -1 with a message (a callback's, or a bad start). */
+int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                  refine_active_fn active, void *ctx, float *params, refine_result *r,
+                  char *err, size_t errlen);
+void refine_result_free(refine_result *r);
+
+/* ---------------------------------------------------------------- predict ---------- */
+/*
+ * `imsynth predict` (predict.c; docs/predict.md): an image in, a Blender material out.
+ * Describe -> the predictor's top-k hypotheses and the catalogue's nearest samples ->
+ * each rendered and scored -> the best refined (refine_search) -> rendered at the final
+ * preset -> sub-shader extracted. OUTDIR receives material.json (the sub-shader, in the
+ * graph format blender/import_material.py builds), params.json (super-shader parameters),
+ * preview.png, compare.png (input | preview | loss curve) and report.json (format
+ * "imsynth-predict/1": candidates and their losses, the winner, the curve, timings).
+ */
+typedef enum predict_light { PREDICT_LIGHT_SCENE, PREDICT_LIGHT_FLASH, PREDICT_LIGHT_AUTO } predict_light;
+extern const char *const predict_light_names[3]; /* "scene", "flash", "auto" */
+
+typedef struct predict_options {
+    const char *image_path;
+    const char *out_dir;      /* written whole or not at all; an earlier output is replaced */
+    const char *model_dir;    /* NULL: assets/model found with pipeline_find_data */
+    const char *graph_path;   /* NULL: assets/supershader.json likewise */
+    const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
+    int top_k;                /* predictor hypotheses (8) */
+    int nearest;              /* catalogue candidates (8; 0: none) */
+    refine_options refine;    /* budget 1: the best candidate as it is (default 64) */
+    const datagen_preset *search_preset; /* candidates and refinement ("datagen") */
+    const datagen_preset *final_preset;  /* the preview ("converged") */
+    predict_light light;      /* where the input's light was: our scene, a flash, or try both */
+    double colour_weight;     /* loss = G + colour_weight x C (4) */
+    int threads;              /* render threads (0 = online CPUs); never changes a byte */
+    int blender;              /* 4 or 3 */
+    uint64_t seed;            /* render noise (one seed for the whole run) */
+    /* After every render with the stage ("describe", "candidates", "refine", "final
+     * render"), counts and the best loss so far. May be NULL. */
+    void (*progress)(void *ctx, const char *stage, int done, int todo, double best);
+    void *progress_ctx;
+} predict_options;
+
+/* top_k 8, nearest 8, refinement coordinate with budget 64, presets datagen/converged,
+ * light scene, colour_weight 4, blender 4, seed 1. */
+void predict_options_default(predict_options *o);
+/* Returns 0, or -1 with a message naming the file and the place. */
+int predict_run(const predict_options *o, char *err, size_t errlen);
 
 #endif

@@ -1,0 +1,197 @@
+/* imsynth predict: an image in, an editable Blender material out (pipeline.h, "predict";
+ * docs/predict.md). */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli/cli.h"
+#include "pipeline/pipeline.h"
+
+static const char *const help =
+    "usage: imsynth predict IMAGE -o OUTDIR [options]\n"
+    "\n"
+    "Turns a photo or render of a surface into a procedural Blender material:\n"
+    "  1. IMAGE (PNG, JPEG with EXIF orientation, TIFF, EXR; 8/16-bit, float, grey, RGBA;\n"
+    "     any size of at least 32 x 32) is cut to its largest centred square and resampled\n"
+    "     to the scene's 256 x 256, then described as the model's training renders were;\n"
+    "  2. candidates: the predictor's --top-k hypotheses and the --nearest catalogue samples\n"
+    "     (those with the same sub-shader merged), each rendered in our scene and scored;\n"
+    "  3. the best is refined: a search over the parameters its sub-shader depends on,\n"
+    "     --refine N renders at the search preset (N = 1: no refinement);\n"
+    "  4. the result is rendered at the final preset and its sub-shader extracted.\n"
+    "The loss is G + w C: G the Gram distance of the model's descriptor, C the mean\n"
+    "difference of 32x32 box averages of the colours, w = --colour-weight.\n"
+    "\n"
+    "OUTDIR (written whole or not at all; an earlier predict output there is replaced):\n"
+    "  material.json  the material, for Blender:\n"
+    "                 blender -b -P blender/import_material.py -- OUTDIR/material.json \\\n"
+    "                     --save material.blend\n"
+    "  params.json    its super-shader parameters (imsynth render/extract --params)\n"
+    "  preview.png    our render of it in the scene\n"
+    "  compare.png    input | preview | the refinement's loss curve\n"
+    "  report.json    candidates, losses, the winner, the curve, timings\n"
+    "\n"
+    "options:\n"
+    "  -o, --output OUTDIR    the output folder (required)\n"
+    "  --model DIR            a model from imsynth fit-predictor (default assets/model)\n"
+    "  --light scene|flash|auto  where the input's light was: our point-light scene\n"
+    "                         (default), a flash at the camera, or try both, keep the better\n"
+    "  --top-k K              predictor hypotheses (default 8)\n"
+    "  --nearest N            catalogue candidates (default 8; 0: none)\n"
+    "  --refine N             refinement renders, the start's included (default 64)\n"
+    "  --method M             coordinate (default), es, random (docs/predict.md)\n"
+    "  --search-preset NAME   draft, datagen (default), converged\n"
+    "  --final-preset NAME    the preview's (default converged)\n"
+    "  --colour-weight W      weight of the colour term (default 4)\n"
+    "  --threads T            render threads (default: online CPUs); never changes a byte\n"
+    "  --seed S               render noise seed (default 1)\n"
+    "  --blender 4|3          node and BSDF semantics (default 4)\n"
+    "  --graph G.json         the super-shader (default assets/supershader.json)\n"
+    "  --quiet                no progress on stderr\n";
+
+typedef struct progress_state {
+    int tty, open;
+    double last;
+} progress_state;
+
+static void progress(void *ctx, const char *stage, int done, int todo, double best)
+{
+    progress_state *ps = ctx;
+    if (ps->tty) {
+        fprintf(stderr, "\rpredict: %-12s %3d/%-3d  best loss %.4f   ", stage, done, todo, best);
+        ps->open = 1;
+    } else if (done == todo) {
+        fprintf(stderr, "predict: %s %d/%d, best loss %.4f\n", stage, done, todo, best);
+    }
+    fflush(stderr);
+}
+
+static const datagen_preset *preset_arg(const char *sub, const char *opt, const char *v)
+{
+    const datagen_preset *p = datagen_preset_find(v);
+    if (!p)
+        cli_error(sub, "%s: unknown preset \"%s\" (%s)", opt, v, datagen_preset_names());
+    return p;
+}
+
+int cmd_predict(int argc, char **argv)
+{
+    const char *sub = "predict";
+    if (cli_wants_help(argc, argv)) {
+        fputs(help, stdout);
+        return EXIT_OK;
+    }
+    predict_options o;
+    predict_options_default(&o);
+    int quiet = 0;
+    long long v;
+    double d;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (a[0] != '-') {
+            if (o.image_path) {
+                cli_error(sub, "one IMAGE only (got \"%s\" and \"%s\")", o.image_path, a);
+                return EXIT_USAGE;
+            }
+            o.image_path = a;
+            continue;
+        }
+        if (!strcmp(a, "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            cli_error(sub, "%s needs a value (see --help)", a);
+            return EXIT_USAGE;
+        }
+        const char *val = argv[++i];
+        if (!strcmp(a, "-o") || !strcmp(a, "--output"))
+            o.out_dir = val;
+        else if (!strcmp(a, "--model"))
+            o.model_dir = val;
+        else if (!strcmp(a, "--graph"))
+            o.graph_path = val;
+        else if (!strcmp(a, "--light")) {
+            int k = -1;
+            for (int j = 0; j < 3; j++)
+                if (!strcmp(val, predict_light_names[j]))
+                    k = j;
+            if (k < 0) {
+                cli_error(sub, "--light: \"%s\" is not scene, flash or auto", val);
+                return EXIT_USAGE;
+            }
+            o.light = (predict_light)k;
+        } else if (!strcmp(a, "--top-k")) {
+            if (cli_parse_ll(sub, a, val, 1, 256, &v))
+                return EXIT_USAGE;
+            o.top_k = (int)v;
+        } else if (!strcmp(a, "--nearest")) {
+            if (cli_parse_ll(sub, a, val, 0, 256, &v))
+                return EXIT_USAGE;
+            o.nearest = (int)v;
+        } else if (!strcmp(a, "--refine")) {
+            if (cli_parse_ll(sub, a, val, 1, 100000, &v))
+                return EXIT_USAGE;
+            o.refine.budget = (int)v;
+        } else if (!strcmp(a, "--method")) {
+            int m = refine_method_parse(val);
+            if (m < 0) {
+                cli_error(sub, "--method: \"%s\" is not coordinate, es or random", val);
+                return EXIT_USAGE;
+            }
+            o.refine.method = (refine_method)m;
+        } else if (!strcmp(a, "--search-preset")) {
+            if (!(o.search_preset = preset_arg(sub, a, val)))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--final-preset")) {
+            if (!(o.final_preset = preset_arg(sub, a, val)))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--colour-weight")) {
+            if (cli_parse_double(sub, a, val, 0.0, 1e6, &d))
+                return EXIT_USAGE;
+            o.colour_weight = d;
+        } else if (!strcmp(a, "--threads")) {
+            if (cli_parse_ll(sub, a, val, 0, 1024, &v))
+                return EXIT_USAGE;
+            o.threads = (int)v;
+        } else if (!strcmp(a, "--seed")) {
+            if (cli_parse_ll(sub, a, val, 0, INT64_MAX, &v))
+                return EXIT_USAGE;
+            o.seed = (uint64_t)v;
+        } else if (!strcmp(a, "--blender")) {
+            if (strcmp(val, "3") && strcmp(val, "4")) {
+                cli_error(sub, "--blender: \"%s\" is not 3 or 4", val);
+                return EXIT_USAGE;
+            }
+            o.blender = atoi(val);
+        } else {
+            cli_error(sub, "unknown option \"%s\" (see --help)", a);
+            return EXIT_USAGE;
+        }
+    }
+    if (!o.image_path || !o.out_dir) {
+        cli_error(sub, "need IMAGE and -o OUTDIR (see --help)");
+        return EXIT_USAGE;
+    }
+    progress_state ps = {.tty = isatty(2)};
+    if (!quiet) {
+        o.progress = progress;
+        o.progress_ctx = &ps;
+    }
+    char err[1024];
+    int rc = predict_run(&o, err, sizeof err);
+    if (ps.open)
+        fputc('\n', stderr);
+    if (rc) {
+        cli_error(sub, "%s", err);
+        return EXIT_FAILURE_WORK;
+    }
+    if (!quiet)
+        fprintf(stderr, "predict: wrote %s/material.json (import: blender -b -P "
+                        "blender/import_material.py -- %s/material.json --save material.blend) "
+                        "and %s/compare.png\n",
+                o.out_dir, o.out_dir, o.out_dir);
+    return EXIT_OK;
+}

@@ -1,0 +1,787 @@
+/*
+ * imsynth predict: an image in, a Blender material out (pipeline.h, "predict";
+ * docs/predict.md).
+ *
+ *   describe the input -> candidates: the predictor's top-k hypotheses and the catalogue's
+ *   nearest samples, those with the same sub-shader merged -> each rendered (the search
+ *   preset) and scored -> the best refined (refine.c) -> rendered at the final preset ->
+ *   the sub-shader extracted -> OUTDIR written.
+ *
+ * The loss of a parameter set, at the search preset with one seed for the whole run
+ * (common random numbers: two candidates differ by their materials, not their noise):
+ *     loss = G + colour_weight x C
+ * G the Gram distance of the training descriptor (evaluate_gram_distance, in [0, 1]), C the
+ * colour term (evaluate_colour_distance: L1 of 32 x 32 box averages, in [0, 1]). Parameter
+ * sets whose sub-shaders are equal render alike, so the loss is cached by the sub-shader's
+ * hash: a move of an inactive parameter costs an extraction (milliseconds), not a render.
+ *
+ * Invariant: OUTDIR is written as OUTDIR.tmp.PID and renamed whole; an OUTDIR that exists is
+ * replaced only when it is an earlier predict's output (its report.json says so).
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <dirent.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "pipeline/pipeline_internal.h"
+
+#define PREDICT_FORMAT "imsynth-predict/1"
+
+void predict_options_default(predict_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->top_k = 8;
+    o->nearest = 8;
+    refine_options_default(&o->refine);
+    o->refine.budget = 64;
+    o->search_preset = datagen_preset_find("datagen");
+    o->final_preset = datagen_preset_find("converged");
+    o->light = PREDICT_LIGHT_SCENE;
+    o->blender = 4;
+    o->seed = 1;
+    o->colour_weight = 4.0;
+}
+
+const char *const predict_light_names[3] = {"scene", "flash", "auto"};
+
+/* ---------------------------------------------------------------- the loss --------- */
+
+typedef struct cached {
+    char key[65]; /* sha256 of the sub-shader JSON and the scene */
+    double g, c;
+} cached;
+
+typedef struct scorer {
+    const predict_options *o;
+    sg_graph *graph;
+    sg_params params;
+    const char *graph_path;
+    const render_scene *scenes[2]; /* plain, flash */
+    int scene;                     /* which one the loss renders in */
+    pipeline_descriptor *desc;
+    size_t offsets[65];
+    int n_layers;
+    float *target_desc, *desc_buf;
+    const image *target;
+    cached *cache;
+    int n_cache, cap_cache;
+    int renders;
+    double render_s, describe_s;
+} scorer;
+
+static int bind(scorer *sc, const float *params, char *err, size_t errlen)
+{
+    memcpy(sc->params.values, params, (size_t)sc->params.n * sizeof(float));
+    sg_error e;
+    if (sg_graph_bind_params(sc->graph, &sc->params, &e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e.msg);
+    return 0;
+}
+
+/* Renders the bound graph in scene `scene` with preset p; out is allocated. */
+static int render_bound(scorer *sc, int scene, const datagen_preset *p, image *out, char *err,
+                        size_t errlen)
+{
+    render_material *m =
+        pipeline_render_material(sc->graph, sc->graph_path, sc->o->blender, err, errlen);
+    if (!m)
+        return -1;
+    render_options ro;
+    datagen_preset_render_options(p, sc->o->blender, &ro);
+    ro.threads = sc->o->threads;
+    ro.seed = sc->o->seed;
+    char msg[768];
+    double t0 = pipeline_now();
+    int rc = render_image(sc->scenes[scene], m, &ro, out, NULL, msg, sizeof msg);
+    sc->render_s += pipeline_now() - t0;
+    render_material_free(m);
+    if (rc < 0)
+        return pipeline_error(err, errlen, "render: %s", msg);
+    sc->renders++;
+    return 0;
+}
+
+/* G and C of an image against the input. */
+static int image_distances(scorer *sc, const image *img, double *g, double *c, char *err,
+                           size_t errlen)
+{
+    double t0 = pipeline_now();
+    int rc = pipeline_descriptor_compute(sc->desc, img, sc->desc_buf, err, errlen);
+    sc->describe_s += pipeline_now() - t0;
+    if (rc)
+        return -1;
+    *g = evaluate_gram_distance(sc->desc_buf, sc->target_desc, sc->offsets, sc->n_layers);
+    return evaluate_colour_distance(img, sc->target, c, err, errlen);
+}
+
+/* The distances of a parameter set in the current scene, from the cache or rendered. */
+static int score(scorer *sc, const float *params, double *g, double *c, char *err,
+                 size_t errlen)
+{
+    if (bind(sc, params, err, errlen))
+        return -1;
+    sg_extract_options eo = {.blender = sc->o->blender};
+    sg_error e;
+    sg_graph *sub = sg_extract(sc->graph, &eo, &e);
+    if (!sub)
+        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e.msg);
+    char *json = sg_graph_to_json(sub);
+    sg_graph_free(sub);
+    if (!json)
+        return pipeline_error(err, errlen, "out of memory");
+    sha256_ctx h;
+    sha256_init(&h);
+    sha256_update(&h, json, strlen(json));
+    sha256_update(&h, &sc->scene, sizeof sc->scene);
+    free(json);
+    char key[65];
+    sha256_final_hex(&h, key);
+    for (int i = 0; i < sc->n_cache; i++)
+        if (!strcmp(sc->cache[i].key, key)) {
+            *g = sc->cache[i].g;
+            *c = sc->cache[i].c;
+            return 0;
+        }
+    image img = {0};
+    if (render_bound(sc, sc->scene, sc->o->search_preset, &img, err, errlen))
+        return -1;
+    int rc = image_distances(sc, &img, g, c, err, errlen);
+    image_free(&img);
+    if (rc)
+        return -1;
+    if (sc->n_cache == sc->cap_cache) {
+        int cap = sc->cap_cache ? 2 * sc->cap_cache : 64;
+        cached *n = realloc(sc->cache, (size_t)cap * sizeof *n);
+        if (!n)
+            return pipeline_error(err, errlen, "out of memory");
+        sc->cache = n;
+        sc->cap_cache = cap;
+    }
+    cached *ce = &sc->cache[sc->n_cache++];
+    memcpy(ce->key, key, sizeof key);
+    ce->g = *g;
+    ce->c = *c;
+    return 0;
+}
+
+static double combine(const scorer *sc, double g, double c) { return g + sc->o->colour_weight * c; }
+
+static int loss_cb(void *ctx, const float *params, double *loss, char *err, size_t errlen)
+{
+    scorer *sc = ctx;
+    double g, c;
+    if (score(sc, params, &g, &c, err, errlen))
+        return -1;
+    *loss = combine(sc, g, c);
+    return 0;
+}
+
+static int active_cb(void *ctx, const float *params, uint8_t *active, char *err, size_t errlen)
+{
+    scorer *sc = ctx;
+    if (bind(sc, params, err, errlen))
+        return -1;
+    return pipeline_active_params(sc->graph, sc->o->blender, active, NULL, err, errlen);
+}
+
+/* ---------------------------------------------------------------- candidates ------- */
+
+enum { FROM_PREDICTOR, FROM_CATALOGUE };
+static const char *const from_names[2] = {"predictor", "catalogue"};
+
+typedef struct candidate {
+    int from, rank;
+    double prior; /* the predictor's probability, or the catalogue distance */
+    long long id; /* catalogue id, or -1 */
+    double g[2], c[2], loss[2]; /* per scene; NAN when not rendered there */
+} candidate;
+
+/* ---------------------------------------------------------------- output ----------- */
+
+static cJSON *params_json(const sg_params *names_from, const float *v)
+{
+    sg_params p = {.n = names_from->n, .names = names_from->names, .values = (float *)v};
+    char *text = sg_params_to_json(&p);
+    cJSON *j = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    return j ? j : cJSON_CreateObject();
+}
+
+static cJSON *num(double v) { return isfinite(v) ? cJSON_CreateNumber(v) : cJSON_CreateNull(); }
+
+/* The loss curve as a picture: a tile x tile plot on a dark ground, the best loss after
+ * each evaluation, scaled between its first and last values. */
+static void draw_curve(image *sheet, int ox, int oy, int tile, const double *curve, int n)
+{
+    for (int y = 0; y < tile; y++)
+        for (int x = 0; x < tile; x++) {
+            float *px = sheet->pixels + ((size_t)(oy + y) * (size_t)sheet->width + (size_t)(ox + x)) * 3;
+            px[0] = px[1] = px[2] = 0.02f;
+        }
+    if (n < 1)
+        return;
+    int m = 24; /* margin: labels above, axis room below */
+    double hi = curve[0], lo = curve[n - 1];
+    if (!(hi > lo))
+        hi = lo + 1e-9;
+    int w = tile - 2 * 8, h = tile - 2 * m;
+    /* axes */
+    for (int x = 0; x <= w; x++) {
+        float *px = sheet->pixels + ((size_t)(oy + m + h) * (size_t)sheet->width + (size_t)(ox + 8 + x)) * 3;
+        px[0] = px[1] = px[2] = 0.3f;
+    }
+    for (int y = 0; y <= h; y++) {
+        float *px = sheet->pixels + ((size_t)(oy + m + y) * (size_t)sheet->width + (size_t)(ox + 8)) * 3;
+        px[0] = px[1] = px[2] = 0.3f;
+    }
+    /* the curve: a step per evaluation, 3 pixels thick, its drops drawn as vertical lines */
+    int prev_y = -1;
+    for (int x = 0; x <= w; x++) {
+        int i = n > 1 ? (int)((double)x / w * (n - 1) + 0.5) : 0;
+        double t = (curve[i] - lo) / (hi - lo);
+        int y = m + (int)((1.0 - t) * h + 0.5);
+        int y0 = prev_y < 0 ? y : prev_y < y ? prev_y : y, y1 = prev_y > y ? prev_y : y;
+        prev_y = y;
+        for (int yy = y0 - 1; yy <= y1 + 1; yy++) {
+            if (yy < m || yy > m + h)
+                continue;
+            float *px = sheet->pixels + ((size_t)(oy + yy) * (size_t)sheet->width + (size_t)(ox + 8 + x)) * 3;
+            px[0] = 1.0f;
+            px[1] = 0.55f;
+            px[2] = 0.1f;
+        }
+    }
+}
+
+/* compare.png: input | preview | loss curve, labelled. */
+static int write_compare(const char *path, const image *input, const image *preview,
+                         const refine_result *rr, double final_loss, char *err, size_t errlen)
+{
+    int tile = 256, header = 20;
+    image sheet;
+    if (image_alloc(&sheet, 3 * tile, header + tile, 3))
+        return pipeline_error(err, errlen, "out of memory");
+    memset(sheet.pixels, 0, (size_t)sheet.width * (size_t)sheet.height * 3 * sizeof(float));
+    if (pipeline_sheet_paste(&sheet, input, 0, header, tile) ||
+        pipeline_sheet_paste(&sheet, preview, tile, header, tile)) {
+        image_free(&sheet);
+        return pipeline_error(err, errlen, "out of memory");
+    }
+    draw_curve(&sheet, 2 * tile, header, tile, rr->curve, rr->evals);
+    pipeline_sheet_label(&sheet, 2, 2, "input", 2);
+    pipeline_sheet_label(&sheet, tile + 2, 2, "imsynth", 2);
+    char label[64];
+    snprintf(label, sizeof label, "loss %d renders", rr->evals);
+    pipeline_sheet_label(&sheet, 2 * tile + 2, 2, label, 2);
+    snprintf(label, sizeof label, "%.3f - %.3f", rr->start_loss, rr->best_loss);
+    pipeline_sheet_label(&sheet, 2 * tile + 10, header + 4, label, 2);
+    snprintf(label, sizeof label, "final %.3f", final_loss);
+    pipeline_sheet_label(&sheet, tile + 2, header + tile - 16, label, 2);
+    char msg[768];
+    int rc = image_write_png(path, &sheet, msg, sizeof msg);
+    image_free(&sheet);
+    return rc ? pipeline_error(err, errlen, "%s", msg) : 0;
+}
+
+static int write_json(const char *path, cJSON *j, char *err, size_t errlen)
+{
+    char *text = cJSON_Print(j);
+    if (!text)
+        return pipeline_error(err, errlen, "out of memory");
+    size_t n = strlen(text);
+    char *t = realloc(text, n + 2);
+    if (!t) {
+        free(text);
+        return pipeline_error(err, errlen, "out of memory");
+    }
+    memcpy(t + n, "\n", 2);
+    int rc = pipeline_write_text_atomic(path, t, err, errlen);
+    free(t);
+    return rc;
+}
+
+static void remove_tree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d) {
+        struct dirent *e;
+        char p[4096];
+        while ((e = readdir(d)))
+            if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
+                snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+                unlink(p);
+            }
+        closedir(d);
+    }
+    rmdir(dir);
+}
+
+/* May OUTDIR be replaced? Yes when missing, empty, or an earlier predict's output. */
+static int check_out_dir(const char *dir, int *exists, char *err, size_t errlen)
+{
+    struct stat st;
+    *exists = 0;
+    if (stat(dir, &st) != 0) {
+        if (errno == ENOENT)
+            return 0;
+        return pipeline_error(err, errlen, "%s: %s", dir, strerror(errno));
+    }
+    if (!S_ISDIR(st.st_mode))
+        return pipeline_error(err, errlen, "%s: exists and is not a folder", dir);
+    *exists = 1;
+    DIR *d = opendir(dir);
+    if (!d)
+        return pipeline_error(err, errlen, "%s: %s", dir, strerror(errno));
+    int entries = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        entries += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    if (!entries)
+        return 0;
+    char p[4096];
+    snprintf(p, sizeof p, "%s/report.json", dir);
+    char *text = pipeline_read_file(p, NULL, NULL, 0);
+    cJSON *j = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    const cJSON *f = cJSON_GetObjectItemCaseSensitive(j, "format");
+    int ours = cJSON_IsString(f) && !strcmp(f->valuestring, PREDICT_FORMAT);
+    cJSON_Delete(j);
+    if (!ours)
+        return pipeline_error(err, errlen,
+                              "%s: exists and is not an earlier `imsynth predict` output (no "
+                              "report.json of format %s); not replacing it",
+                              dir, PREDICT_FORMAT);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- the run ---------- */
+
+static void progress(const predict_options *o, const char *stage, int done, int todo,
+                     double best)
+{
+    if (o->progress)
+        o->progress(o->progress_ctx, stage, done, todo, best);
+}
+
+/* The refine loss callback with progress. */
+typedef struct refine_ctx {
+    scorer *sc;
+    int budget, evals;
+    double best;
+} refine_ctx;
+
+static int refine_loss_cb(void *ctx, const float *params, double *loss, char *err, size_t errlen)
+{
+    refine_ctx *rc = ctx;
+    if (loss_cb(rc->sc, params, loss, err, errlen))
+        return -1;
+    rc->evals++;
+    if (*loss < rc->best)
+        rc->best = *loss;
+    progress(rc->sc->o, "refine", rc->evals, rc->budget, rc->best);
+    return 0;
+}
+
+static int refine_active_cb(void *ctx, const float *params, uint8_t *active, char *err,
+                            size_t errlen)
+{
+    refine_ctx *rc = ctx;
+    return active_cb(rc->sc, params, active, err, errlen);
+}
+
+int predict_run(const predict_options *o, char *err, size_t errlen)
+{
+    double t_start = pipeline_now(), t_stage = t_start;
+    double t_describe = 0, t_candidates = 0, t_refine = 0, t_final = 0;
+    int rc = -1, exists = 0;
+    char tmp_dir[4096] = "", old_dir[4096] = "", path[4096], graph_buf[4096];
+    char scene_buf[2][4096], model_buf[4096];
+    predictor *pred = NULL;
+    image raw = {0}, input = {0}, preview = {0};
+    scorer sc = {.o = o};
+    render_scene *scenes[2] = {NULL, NULL};
+    float *cand_params = NULL, *best = NULL;
+    candidate *cands = NULL;
+    double *prob = NULL, *ndist = NULL;
+    size_t *nindex = NULL;
+    int *keep = NULL;
+    refine_kind *kind = NULL;
+    int *choices = NULL;
+    refine_result rr = {0};
+    cJSON *report = NULL;
+    sg_graph *sub = NULL;
+
+    if (!o->image_path || !o->out_dir)
+        return pipeline_error(err, errlen, "predict: need an image and an output folder");
+    if (o->top_k < 1 || o->nearest < 0 || o->top_k > 256 || o->nearest > 256 ||
+        o->refine.budget < 1 || !o->search_preset || !o->final_preset)
+        return pipeline_error(err, errlen, "predict: bad options (top-k %d, nearest %d, budget %d)",
+                              o->top_k, o->nearest, o->refine.budget);
+    if (check_out_dir(o->out_dir, &exists, err, errlen))
+        return -1;
+
+    /* The input: read, checked, its centre square at the scene's size. */
+    if (image_read(o->image_path, &raw, err, errlen))
+        return -1;
+    if (raw.width < 32 || raw.height < 32) {
+        pipeline_error(err, errlen, "%s: %d x %d pixels; an input needs at least 32 x 32",
+                       o->image_path, raw.width, raw.height);
+        goto done;
+    }
+    {
+        size_t n = (size_t)raw.width * (size_t)raw.height * (size_t)raw.channels, bad = 0;
+        for (size_t i = 0; i < n; i++)
+            bad += !isfinite(raw.pixels[i]);
+        if (bad) {
+            pipeline_error(err, errlen, "%s: %zu of %zu pixel values are NaN or infinite",
+                           o->image_path, bad, n);
+            goto done;
+        }
+    }
+
+    /* Data files. */
+    const char *model_dir = o->model_dir;
+    if (!model_dir) {
+        if (pipeline_find_data("assets/model", model_buf, sizeof model_buf, err, errlen))
+            goto done;
+        model_dir = model_buf;
+    }
+    if (!(pred = predictor_load(model_dir, err, errlen)))
+        goto done;
+    sc.graph_path = o->graph_path;
+    if (!sc.graph_path) {
+        if (pipeline_find_data("assets/supershader.json", graph_buf, sizeof graph_buf, err, errlen))
+            goto done;
+        sc.graph_path = graph_buf;
+    }
+    const char *scene_rel[2] = {"assets/scene.json", "assets/scene-flash.json"};
+    const char *scene_given[2] = {o->scene_path, o->flash_scene_path};
+    for (int s = 0; s < 2; s++) {
+        if (o->light != PREDICT_LIGHT_AUTO && s != (o->light == PREDICT_LIGHT_FLASH))
+            continue;
+        const char *sp = scene_given[s];
+        if (!sp) {
+            if (pipeline_find_data(scene_rel[s], scene_buf[s], sizeof scene_buf[s], err, errlen))
+                goto done;
+            sp = scene_buf[s];
+        }
+        if (!(scenes[s] = render_scene_load(sp, err, errlen)))
+            goto done;
+        sc.scenes[s] = scenes[s];
+    }
+    int width, height;
+    render_scene_resolution(scenes[o->light == PREDICT_LIGHT_FLASH], &width, &height);
+    if (pipeline_prepare_input(&raw, width, &input, err, errlen))
+        goto done;
+    sc.target = &input;
+
+    if (!(sc.graph = pipeline_load_graph(sc.graph_path, NULL, -1, err, errlen)))
+        goto done;
+    sg_error e;
+    if (sg_params_from_graph(sc.graph, &sc.params, &e) < 0) {
+        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e.msg);
+        goto done;
+    }
+    int np = sc.params.n;
+    if (np != predictor_n_params(pred)) {
+        pipeline_error(err, errlen, "%s: %d parameters; the model %s has %d", sc.graph_path, np,
+                       model_dir, predictor_n_params(pred));
+        goto done;
+    }
+    for (int i = 0; i < np; i++)
+        if (strcmp(sc.params.names[i], predictor_param_names(pred)[i])) {
+            pipeline_error(err, errlen, "%s: parameter %d is \"%s\"; the model %s says \"%s\"",
+                           sc.graph_path, i, sc.params.names[i], model_dir,
+                           predictor_param_names(pred)[i]);
+            goto done;
+        }
+
+    /* Describe. */
+    progress(o, "describe", 0, 1, NAN);
+    if (!(sc.desc = pipeline_descriptor_create(predictor_descriptor_kind(pred), err, errlen)))
+        goto done;
+    size_t dsize = pipeline_descriptor_size(sc.desc);
+    sc.n_layers = pipeline_descriptor_layers(sc.desc, sc.offsets);
+    sc.target_desc = malloc(dsize * sizeof(float));
+    sc.desc_buf = malloc(dsize * sizeof(float));
+    if (!sc.target_desc || !sc.desc_buf) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    if (pipeline_descriptor_compute(sc.desc, &input, sc.target_desc, err, errlen))
+        goto done;
+    t_describe = pipeline_now() - t_stage;
+    t_stage = pipeline_now();
+
+    /* Candidates: the predictor's hypotheses, then the catalogue's nearest. */
+    int n_all = o->top_k + o->nearest;
+    cand_params = malloc((size_t)n_all * (size_t)np * sizeof(float));
+    cands = calloc((size_t)n_all, sizeof *cands);
+    prob = malloc((size_t)o->top_k * sizeof *prob);
+    nindex = malloc((size_t)(o->nearest ? o->nearest : 1) * sizeof *nindex);
+    ndist = malloc((size_t)(o->nearest ? o->nearest : 1) * sizeof *ndist);
+    keep = malloc((size_t)n_all * sizeof *keep);
+    best = malloc((size_t)np * sizeof *best);
+    if (!cand_params || !cands || !prob || !nindex || !ndist || !keep || !best) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    int n_pred = predictor_predict(pred, sc.target_desc, o->top_k, cand_params, prob, err, errlen);
+    if (n_pred < 0)
+        goto done;
+    for (int i = 0; i < n_pred; i++)
+        cands[i] = (candidate){.from = FROM_PREDICTOR, .rank = i, .prior = prob[i], .id = -1};
+    int n_near = 0;
+    if (o->nearest > 0 && predictor_catalogue_size(pred) > 0) {
+        n_near = predictor_nearest(pred, sc.target_desc, o->nearest, nindex, ndist, err, errlen);
+        if (n_near < 0)
+            goto done;
+        for (int i = 0; i < n_near; i++) {
+            long long id;
+            memcpy(cand_params + (size_t)(n_pred + i) * np,
+                   predictor_catalogue_params(pred, nindex[i], &id), (size_t)np * sizeof(float));
+            cands[n_pred + i] = (candidate){.from = FROM_CATALOGUE, .rank = i, .prior = ndist[i], .id = id};
+        }
+    }
+    int n_cands = n_pred + n_near;
+    int n_keep = pipeline_distinct_subshaders(sc.graph, o->blender, cand_params, n_cands, n_cands,
+                                              keep, err, errlen);
+    if (n_keep < 0)
+        goto done;
+
+    /* Score each distinct candidate in each scene tried; the best (candidate, scene) wins. */
+    int best_k = -1, best_scene = 0;
+    double best_loss = INFINITY;
+    int n_scenes_tried = o->light == PREDICT_LIGHT_AUTO ? 2 : 1;
+    for (int j = 0; j < n_keep; j++) {
+        candidate *c = &cands[keep[j]];
+        c->g[0] = c->g[1] = c->c[0] = c->c[1] = c->loss[0] = c->loss[1] = NAN;
+        for (int s = 0; s < 2; s++) {
+            if (!scenes[s])
+                continue;
+            sc.scene = s;
+            if (score(&sc, cand_params + (size_t)keep[j] * np, &c->g[s], &c->c[s], err, errlen))
+                goto done;
+            c->loss[s] = combine(&sc, c->g[s], c->c[s]);
+            if (c->loss[s] < best_loss) {
+                best_loss = c->loss[s];
+                best_k = keep[j];
+                best_scene = s;
+            }
+        }
+        progress(o, "candidates", j + 1, n_keep, best_loss);
+    }
+    if (best_k < 0) {
+        pipeline_error(err, errlen, "%s: no candidate could be scored (every loss NaN)",
+                       o->image_path);
+        goto done;
+    }
+    (void)n_scenes_tried;
+    t_candidates = pipeline_now() - t_stage;
+    t_stage = pipeline_now();
+
+    /* Refine the winner in its scene. */
+    memcpy(best, cand_params + (size_t)best_k * np, (size_t)np * sizeof(float));
+    kind = malloc((size_t)np * sizeof *kind);
+    choices = malloc((size_t)np * sizeof *choices);
+    if (!kind || !choices) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    for (int i = 0; i < np; i++) {
+        const char *name = sc.params.names[i];
+        choices[i] = sg_param_mult_choices(name);
+        kind[i] = choices[i] >= 2                   ? REFINE_SELECTOR
+                  : strstr(name, "Pattern Offset") ? REFINE_FIXED
+                  : strstr(name, "Hue")            ? REFINE_CIRCULAR
+                                                   : REFINE_VALUE;
+    }
+    refine_space space = {.n = np, .kind = kind, .choices = choices};
+    sc.scene = best_scene;
+    refine_ctx rctx = {.sc = &sc, .budget = o->refine.budget, .best = best_loss};
+    if (refine_search(&space, &o->refine, refine_loss_cb, refine_active_cb, &rctx, best, &rr, err,
+                      errlen))
+        goto done;
+    t_refine = pipeline_now() - t_stage;
+    t_stage = pipeline_now();
+
+    /* The final render, its distances, the sub-shader. */
+    progress(o, "final render", 0, 1, rr.best_loss);
+    if (bind(&sc, best, err, errlen) ||
+        render_bound(&sc, best_scene, o->final_preset, &preview, err, errlen))
+        goto done;
+    double final_g, final_c;
+    if (image_distances(&sc, &preview, &final_g, &final_c, err, errlen))
+        goto done;
+    sg_extract_options eo = {.blender = o->blender};
+    if (!(sub = sg_extract(sc.graph, &eo, &e))) {
+        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e.msg);
+        goto done;
+    }
+    t_final = pipeline_now() - t_stage;
+
+    /* Write OUTDIR.tmp.PID, then rename. */
+    if ((size_t)snprintf(tmp_dir, sizeof tmp_dir, "%s.tmp.%ld", o->out_dir, (long)getpid()) >=
+        sizeof tmp_dir - 64) {
+        pipeline_error(err, errlen, "%s: path too long", o->out_dir);
+        tmp_dir[0] = 0;
+        goto done;
+    }
+    remove_tree(tmp_dir);
+    if (mkdir(tmp_dir, 0777) != 0) {
+        pipeline_error(err, errlen, "%s: %s", tmp_dir, strerror(errno));
+        tmp_dir[0] = 0;
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/material.json", tmp_dir);
+    if (sg_graph_save_file(sub, path, &e) < 0) {
+        pipeline_error(err, errlen, "%s", e.msg);
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/params.json", tmp_dir);
+    memcpy(sc.params.values, best, (size_t)np * sizeof(float));
+    if (sg_params_write_file(path, &sc.params, &e) < 0) {
+        pipeline_error(err, errlen, "%s", e.msg);
+        goto done;
+    }
+    snprintf(path, sizeof path, "%s/preview.png", tmp_dir);
+    char msg[768];
+    if (image_write_png(path, &preview, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "%s", msg);
+        goto done;
+    }
+    double final_loss = combine(&sc, final_g, final_c);
+    snprintf(path, sizeof path, "%s/compare.png", tmp_dir);
+    if (write_compare(path, &input, &preview, &rr, final_loss, err, errlen))
+        goto done;
+
+    report = cJSON_CreateObject();
+    cJSON_AddStringToObject(report, "format", PREDICT_FORMAT);
+    cJSON_AddStringToObject(report, "imsynth", IMSYNTH_VERSION);
+    cJSON_AddStringToObject(report, "image", o->image_path);
+    cJSON_AddNumberToObject(report, "image_width", raw.width);
+    cJSON_AddNumberToObject(report, "image_height", raw.height);
+    cJSON_AddStringToObject(report, "model", model_dir);
+    cJSON_AddStringToObject(report, "supershader", sc.graph_path);
+    cJSON_AddStringToObject(report, "light_asked", predict_light_names[o->light]);
+    cJSON_AddStringToObject(report, "light", best_scene ? "flash" : "scene");
+    cJSON *lossj = cJSON_AddObjectToObject(report, "loss");
+    cJSON_AddStringToObject(lossj, "definition",
+                            "G + colour_weight * C; G: Gram distance of the model's descriptor; "
+                            "C: L1 of 32x32 box averages (docs/predict.md)");
+    cJSON_AddStringToObject(lossj, "descriptor",
+                            predictor_descriptor_kind(pred) == DATAGEN_DESC_VGG19_F16 ? "vgg19"
+                                                                                        : "mobilenetv2");
+    cJSON_AddNumberToObject(lossj, "colour_weight", o->colour_weight);
+    cJSON_AddStringToObject(lossj, "search_preset", o->search_preset->name);
+    cJSON_AddStringToObject(lossj, "final_preset", o->final_preset->name);
+    cJSON_AddNumberToObject(lossj, "seed", (double)o->seed);
+    cJSON *cl = cJSON_AddArrayToObject(report, "candidates");
+    for (int j = 0; j < n_keep; j++) {
+        const candidate *c = &cands[keep[j]];
+        cJSON *cj = cJSON_CreateObject();
+        cJSON_AddStringToObject(cj, "from", from_names[c->from]);
+        cJSON_AddNumberToObject(cj, "rank", c->rank);
+        if (c->from == FROM_PREDICTOR)
+            cJSON_AddItemToObject(cj, "probability", num(c->prior));
+        else {
+            cJSON_AddNumberToObject(cj, "id", (double)c->id);
+            cJSON_AddItemToObject(cj, "descriptor_distance", num(c->prior));
+        }
+        for (int s = 0; s < 2; s++) {
+            if (!scenes[s])
+                continue;
+            cJSON *sj = cJSON_AddObjectToObject(cj, s ? "flash" : "scene");
+            cJSON_AddItemToObject(sj, "gram", num(c->g[s]));
+            cJSON_AddItemToObject(sj, "colour", num(c->c[s]));
+            cJSON_AddItemToObject(sj, "loss", num(c->loss[s]));
+        }
+        cJSON_AddBoolToObject(cj, "chosen", keep[j] == best_k);
+        cJSON_AddItemToArray(cl, cj);
+    }
+    cJSON_AddNumberToObject(report, "candidates_merged", n_cands - n_keep);
+    cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
+    cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
+    cJSON_AddNumberToObject(rj, "budget", o->refine.budget);
+    cJSON_AddNumberToObject(rj, "evaluations", rr.evals);
+    cJSON_AddNumberToObject(rj, "accepted", rr.accepted);
+    cJSON_AddNumberToObject(rj, "movable_parameters", rr.start_movable);
+    cJSON_AddItemToObject(rj, "start_loss", num(rr.start_loss));
+    cJSON_AddItemToObject(rj, "best_loss", num(rr.best_loss));
+    cJSON *curve = cJSON_AddArrayToObject(rj, "curve");
+    for (int i = 0; i < rr.evals; i++)
+        cJSON_AddItemToArray(curve, num(rr.curve[i]));
+    cJSON *fj = cJSON_AddObjectToObject(report, "final");
+    cJSON_AddItemToObject(fj, "gram", num(final_g));
+    cJSON_AddItemToObject(fj, "colour", num(final_c));
+    cJSON_AddItemToObject(fj, "loss", num(final_loss));
+    cJSON_AddNumberToObject(fj, "material_nodes", sg_graph_node_count(sub));
+    cJSON_AddItemToObject(report, "params", params_json(&sc.params, best));
+    cJSON *tj = cJSON_AddObjectToObject(report, "seconds");
+    cJSON_AddNumberToObject(tj, "describe", t_describe);
+    cJSON_AddNumberToObject(tj, "candidates", t_candidates);
+    cJSON_AddNumberToObject(tj, "refine", t_refine);
+    cJSON_AddNumberToObject(tj, "final", t_final);
+    cJSON_AddNumberToObject(tj, "render", sc.render_s);
+    cJSON_AddNumberToObject(tj, "total", pipeline_now() - t_start);
+    cJSON_AddNumberToObject(report, "renders", sc.renders);
+    snprintf(path, sizeof path, "%s/report.json", tmp_dir);
+    if (write_json(path, report, err, errlen))
+        goto done;
+
+    /* Into place: an earlier output moves aside first, and goes once the new one is in. */
+    if (exists) {
+        snprintf(old_dir, sizeof old_dir, "%s.old.%ld", o->out_dir, (long)getpid());
+        remove_tree(old_dir);
+        if (rename(o->out_dir, old_dir) != 0) {
+            pipeline_error(err, errlen, "%s: cannot move aside: %s", o->out_dir, strerror(errno));
+            old_dir[0] = 0;
+            goto done;
+        }
+    }
+    if (rename(tmp_dir, o->out_dir) != 0) {
+        pipeline_error(err, errlen, "%s: %s", o->out_dir, strerror(errno));
+        if (old_dir[0] && rename(old_dir, o->out_dir) == 0)
+            old_dir[0] = 0;
+        goto done;
+    }
+    tmp_dir[0] = 0;
+    if (old_dir[0])
+        remove_tree(old_dir);
+    rc = 0;
+done:
+    if (tmp_dir[0])
+        remove_tree(tmp_dir);
+    cJSON_Delete(report);
+    sg_graph_free(sub);
+    refine_result_free(&rr);
+    free(kind);
+    free(choices);
+    free(cand_params);
+    free(cands);
+    free(prob);
+    free(nindex);
+    free(ndist);
+    free(keep);
+    free(best);
+    free(sc.target_desc);
+    free(sc.desc_buf);
+    free(sc.cache);
+    pipeline_descriptor_free(sc.desc);
+    sg_params_free(&sc.params);
+    sg_graph_free(sc.graph);
+    for (int s = 0; s < 2; s++)
+        render_scene_free(scenes[s]);
+    predictor_free(pred);
+    image_free(&raw);
+    image_free(&input);
+    image_free(&preview);
+    return rc;
+}

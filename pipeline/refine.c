@@ -1,0 +1,314 @@
+/*
+ * Refinement: a derivative-free search over a super-shader's parameters (pipeline.h,
+ * "refinement"; docs/predict.md says why this method).
+ *
+ * The loss is a render and a descriptor (a fraction of a second to a second here), so the
+ * budget is tens of evaluations, not thousands; the space mixes values in [0, 1], circular
+ * values (hues) and selectors; and which parameters matter changes with the selectors.
+ * Gradients are out (the renderer is not differentiable through the super-shader's
+ * branches), and population methods such as CMA-ES need a generation per ~4 + 3 ln n
+ * evaluations before they move, which this budget hardly pays for.
+ *
+ * REFINE_COORDINATE: a stochastic coordinate search with a step per parameter. Each
+ * proposal changes one active parameter: a value by +-step (the direction that last helped
+ * first), a selector to another choice. A better loss is kept and its step grows by 1.5;
+ * a value that failed both ways has its step halved. It spends renders only on what the
+ * current sub-shader depends on, and it is monotone: the result is never worse than the
+ * start.
+ * REFINE_ES: a (1+1) evolution strategy (Rechenberg's 1/5 rule): every active value moved
+ * at once by a Gaussian of width sigma, a selector re-drawn with probability 1/n_active;
+ * sigma grows on success and shrinks on failure so that about 1 in 5 succeeds.
+ * REFINE_RANDOM: uniform draws of the active parameters around nothing: the baseline that
+ * says whether the search's moves are worth more than fresh guesses.
+ *
+ * Invariants: the loss callback is called at most o->budget times; parameters of kind REFINE_FIXED and inactive ones keep
+ * their starting values; curve[i] is the best loss after i + 1 evaluations (non-increasing).
+ */
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline/pipeline_internal.h"
+
+const char *const refine_method_names[REFINE_N_METHODS] = {"coordinate", "es", "random"};
+
+int refine_method_parse(const char *name)
+{
+    for (int m = 0; m < REFINE_N_METHODS; m++)
+        if (!strcmp(name, refine_method_names[m]))
+            return m;
+    return -1;
+}
+
+void refine_options_default(refine_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->method = REFINE_COORDINATE;
+    o->budget = 48;
+    o->step = 0.25;
+    o->min_step = 1.0 / 128;
+    o->seed = 1;
+}
+
+/* Uniform in [0, 1). */
+static double uniform01(uint64_t *s) { return (double)(pipeline_splitmix64(s) >> 11) * 0x1p-53; }
+
+/* Standard normal (Box-Muller; one of the pair is enough here). */
+static double gaussian(uint64_t *s)
+{
+    double u = uniform01(s), v = uniform01(s);
+    return sqrt(-2.0 * log(1.0 - u)) * cos(6.283185307179586 * v);
+}
+
+/* A selector with n choices stores the centre of its bin. */
+static float choice_value(int c, int n) { return (float)((c + 0.5) / n); }
+static int choice_of(float v, int n)
+{
+    int c = (int)(v * (float)n);
+    return c < 0 ? 0 : c >= n ? n - 1 : c;
+}
+
+/* v moved by d, kept in [0, 1]: clamped, or wrapped for a circular value. */
+static float moved(const refine_space *s, int i, float v, double d)
+{
+    double x = v + d;
+    if (s->kind[i] == REFINE_CIRCULAR)
+        x -= floor(x);
+    else
+        x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    return (float)x;
+}
+
+/* A different choice of selector i, uniformly. */
+static float other_choice(const refine_space *s, int i, float v, uint64_t *rng)
+{
+    int n = s->choices[i], c = choice_of(v, n);
+    int r = (int)(pipeline_splitmix64(rng) % (uint64_t)(n - 1));
+    return choice_value(r >= c ? r + 1 : r, n);
+}
+
+typedef struct search {
+    const refine_space *s;
+    const refine_options *o;
+    refine_loss_fn loss;
+    refine_active_fn active;
+    void *ctx;
+    float *x, *y;    /* current best, proposal */
+    uint8_t *act;    /* which of x's parameters matter */
+    int *movable;    /* indices of active, non-fixed parameters */
+    int n_movable;
+    double fx;
+    refine_result *r;
+    uint64_t rng;
+    char *err;
+    size_t errlen;
+} search;
+
+static void update_movable(search *S)
+{
+    S->n_movable = 0;
+    for (int i = 0; i < S->s->n; i++)
+        if (S->act[i] && S->s->kind[i] != REFINE_FIXED &&
+            (S->s->kind[i] != REFINE_SELECTOR || S->s->choices[i] >= 2))
+            S->movable[S->n_movable++] = i;
+}
+
+/* Evaluates S->y; keeps it when better. Returns 1 kept, 0 not, -1 error. */
+static int try_proposal(search *S)
+{
+    double fy;
+    if (S->loss(S->ctx, S->y, &fy, S->err, S->errlen))
+        return -1;
+    refine_result *r = S->r;
+    int better = fy < S->fx; /* a NaN loss never wins */
+    if (better) {
+        memcpy(S->x, S->y, (size_t)S->s->n * sizeof(float));
+        S->fx = fy;
+        r->accepted++;
+        if (S->active(S->ctx, S->x, S->act, S->err, S->errlen))
+            return -1;
+        update_movable(S);
+    }
+    if (r->curve && r->evals < S->o->budget)
+        r->curve[r->evals] = S->fx;
+    r->evals++;
+    return better;
+}
+
+static int coordinate_search(search *S, double *step, signed char *dir)
+{
+    const refine_space *s = S->s;
+    while (S->r->evals < S->o->budget && S->n_movable > 0) {
+        int i = S->movable[pipeline_splitmix64(&S->rng) % (uint64_t)S->n_movable];
+        memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
+        if (s->kind[i] == REFINE_SELECTOR) {
+            S->y[i] = other_choice(s, i, S->x[i], &S->rng);
+            if (try_proposal(S) < 0)
+                return -1;
+            continue;
+        }
+        int d = dir[i] ? dir[i] : (pipeline_splitmix64(&S->rng) & 1 ? 1 : -1), kept = 0;
+        for (int attempt = 0; attempt < 2 && S->r->evals < S->o->budget; attempt++, d = -d) {
+            S->y[i] = moved(s, i, S->x[i], d * step[i]);
+            if (S->y[i] == S->x[i])
+                continue; /* at a bound: only the other way moves */
+            int rc = try_proposal(S);
+            if (rc < 0)
+                return -1;
+            if (rc) {
+                kept = 1;
+                dir[i] = (signed char)d;
+                step[i] = fmin(step[i] * 1.5, 0.5);
+                break;
+            }
+        }
+        if (!kept) {
+            dir[i] = 0;
+            step[i] = fmax(step[i] * 0.5, S->o->min_step);
+        }
+    }
+    return 0;
+}
+
+static int es_search(search *S)
+{
+    const refine_space *s = S->s;
+    double sigma = S->o->step;
+    while (S->r->evals < S->o->budget && S->n_movable > 0) {
+        memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
+        int changed = 0;
+        for (int j = 0; j < S->n_movable; j++) {
+            int i = S->movable[j];
+            if (s->kind[i] == REFINE_SELECTOR) {
+                if (uniform01(&S->rng) * S->n_movable < 1.0) {
+                    S->y[i] = other_choice(s, i, S->x[i], &S->rng);
+                    changed = 1;
+                }
+            } else {
+                S->y[i] = moved(s, i, S->x[i], sigma * gaussian(&S->rng));
+                changed |= S->y[i] != S->x[i];
+            }
+        }
+        if (!changed)
+            continue;
+        int rc = try_proposal(S);
+        if (rc < 0)
+            return -1;
+        /* 1/5 rule: expected log-change zero at a success rate of 1/5. */
+        sigma *= rc ? exp(0.8) : exp(-0.2);
+        sigma = fmin(fmax(sigma, S->o->min_step), 0.5);
+    }
+    return 0;
+}
+
+static int random_search(search *S)
+{
+    const refine_space *s = S->s;
+    /* Draws around the start's active set: a draw that changes a selector may make other
+     * parameters matter, but they keep the start's values, as the other methods' do. */
+    int n_start = S->n_movable, *start_movable = malloc((size_t)(n_start ? n_start : 1) * sizeof(int));
+    if (!start_movable)
+        return pipeline_error(S->err, S->errlen, "out of memory");
+    memcpy(start_movable, S->movable, (size_t)n_start * sizeof(int));
+    float *x0 = malloc((size_t)s->n * sizeof(float));
+    if (!x0) {
+        free(start_movable);
+        return pipeline_error(S->err, S->errlen, "out of memory");
+    }
+    memcpy(x0, S->x, (size_t)s->n * sizeof(float));
+    int rc = 0;
+    while (S->r->evals < S->o->budget && n_start > 0) {
+        memcpy(S->y, x0, (size_t)s->n * sizeof(float));
+        for (int j = 0; j < n_start; j++) {
+            int i = start_movable[j];
+            S->y[i] = s->kind[i] == REFINE_SELECTOR
+                          ? choice_value((int)(pipeline_splitmix64(&S->rng) % (uint64_t)s->choices[i]),
+                                         s->choices[i])
+                          : (float)uniform01(&S->rng);
+        }
+        if ((rc = try_proposal(S)) < 0)
+            break;
+        rc = 0;
+    }
+    free(start_movable);
+    free(x0);
+    return rc;
+}
+
+int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                  refine_active_fn active, void *ctx, float *params, refine_result *r,
+                  char *err, size_t errlen)
+{
+    memset(r, 0, sizeof *r);
+    if (s->n <= 0 || o->budget < 1 || o->method < 0 || o->method >= REFINE_N_METHODS)
+        return pipeline_error(err, errlen, "refine: %d parameters, budget %d, method %d", s->n,
+                              o->budget, o->method);
+    for (int i = 0; i < s->n; i++)
+        if (!(params[i] >= 0.0f && params[i] <= 1.0f))
+            return pipeline_error(err, errlen, "refine: start parameter %d is %g, not in [0, 1]",
+                                  i, (double)params[i]);
+    size_t n = (size_t)s->n;
+    search S = {.s = s, .o = o, .loss = loss, .active = active, .ctx = ctx, .r = r,
+                .err = err, .errlen = errlen};
+    S.rng = o->seed ^ 0x726566696e652121ull; /* "refine!!" */
+    S.x = malloc(n * sizeof(float));
+    S.y = malloc(n * sizeof(float));
+    S.act = malloc(n);
+    S.movable = malloc(n * sizeof(int));
+    double *step = malloc(n * sizeof(double));
+    signed char *dir = calloc(n, 1);
+    r->curve = malloc((size_t)o->budget * sizeof(double));
+    int rc = -1;
+    if (!S.x || !S.y || !S.act || !S.movable || !step || !dir || !r->curve) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++)
+        step[i] = o->step;
+    memcpy(S.x, params, n * sizeof(float));
+    /* The start is the first evaluation: the curve begins where the search does. */
+    if (loss(ctx, S.x, &S.fx, err, errlen) || active(ctx, S.x, S.act, err, errlen))
+        goto done;
+    r->start_loss = S.fx;
+    r->curve[0] = S.fx;
+    r->evals = 1;
+    update_movable(&S);
+    r->start_movable = S.n_movable;
+    switch (o->method) {
+    case REFINE_COORDINATE:
+        rc = coordinate_search(&S, step, dir);
+        break;
+    case REFINE_ES:
+        rc = es_search(&S);
+        break;
+    default:
+        rc = random_search(&S);
+        break;
+    }
+    if (rc)
+        goto done;
+    for (int i = 1; i < r->evals && i < o->budget; i++)
+        assert(r->curve[i] <= r->curve[i - 1] || isnan(r->curve[i - 1]));
+    memcpy(params, S.x, n * sizeof(float));
+    r->best_loss = S.fx;
+    rc = 0;
+done:
+    if (rc) {
+        free(r->curve);
+        r->curve = NULL;
+    }
+    free(S.x);
+    free(S.y);
+    free(S.act);
+    free(S.movable);
+    free(step);
+    free(dir);
+    return rc;
+}
+
+void refine_result_free(refine_result *r)
+{
+    free(r->curve);
+    r->curve = NULL;
+}

@@ -1,0 +1,86 @@
+#!/bin/sh
+# imsynth predict end to end with a small model: OUTDIR holds every file; material.json is
+# the sub-shader of params.json (imsynth extract gives the same bytes); the report's curve
+# never rises and the refinement never ends worse than its start; the same bytes for 1 and
+# 2 threads; a rerun replaces an earlier output, a foreign folder is refused; bad inputs
+# (truncated, 1x1, NaN-filled, missing model) are clear errors naming the file, with nothing
+# left behind.
+# Usage: predict.sh IMSYNTH REPO_ROOT
+imsynth=$1
+root=$2
+. "$root/tests/cli/lib/harness.sh"
+py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
+
+"$imsynth" datagen --out "$tmp/ds.sqlite" --count 24 --preset draft --quiet
+check "a draft dataset" 0 $?
+"$imsynth" fit-predictor --dataset "$tmp/ds.sqlite" --components 8 --hidden 16 --batch 8 \
+    --val-fraction 0.2 --epochs 3 --quiet -o "$tmp/model"
+check "a small model" 0 $?
+
+input="$root/tests/handmade/brick_wall/render.exr"
+fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet"
+"$imsynth" predict "$input" -o "$tmp/out1" $fast --threads 1 2> "$tmp/err"
+check "predict, 1 thread" 0 $?
+for f in material.json params.json preview.png compare.png report.json; do
+    [ -s "$tmp/out1/$f" ] || { echo "FAIL: OUTDIR lacks $f"; failures=$((failures + 1)); }
+done
+ls -d "$tmp"/out1.* 2> /dev/null && { echo "FAIL: temporary folders left"; failures=$((failures + 1)); }
+
+"$imsynth" extract --params "$tmp/out1/params.json" -o "$tmp/sub.json"
+cmp -s "$tmp/sub.json" "$tmp/out1/material.json"
+check "material.json is the sub-shader of params.json" 0 $?
+
+py - "$tmp/out1/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["format"] == "imsynth-predict/1", r["format"]
+ref = r["refinement"]
+c = ref["curve"]
+assert len(c) == ref["evaluations"] == ref["budget"] == 6, ref
+assert all(b <= a for a, b in zip(c, c[1:])), c
+assert c[0] == ref["start_loss"] and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
+chosen = [x for x in r["candidates"] if x["chosen"]]
+assert len(chosen) == 1 and abs(chosen[0]["scene"]["loss"] - ref["start_loss"]) < 1e-12, chosen
+assert min(x["scene"]["loss"] for x in r["candidates"]) == chosen[0]["scene"]["loss"]
+assert 1 <= len(r["candidates"]) <= 4 and r["final"]["material_nodes"] > 0
+assert r["light"] == "scene" and r["renders"] >= 2
+PY
+check "report: the chosen candidate is the best scored, the curve never rises" 0 $?
+
+"$imsynth" predict "$input" -o "$tmp/out2" $fast --threads 2
+check "predict, 2 threads" 0 $?
+for f in material.json params.json preview.png compare.png; do
+    cmp -s "$tmp/out1/$f" "$tmp/out2/$f" || { echo "FAIL: $f differs between 1 and 2 threads"; failures=$((failures + 1)); }
+done
+
+# a rerun into an earlier output replaces it; a folder of other files is refused and kept
+"$imsynth" predict "$input" -o "$tmp/out2" $fast --refine 1
+check "rerun into an earlier output" 0 $?
+py -c "import json,sys; r=json.load(open(sys.argv[1])); assert r['refinement']['evaluations'] == 1" \
+    "$tmp/out2/report.json"
+check "the earlier output was replaced" 0 $?
+mkdir "$tmp/foreign" && echo keep > "$tmp/foreign/notes.txt"
+"$imsynth" predict "$input" -o "$tmp/foreign" $fast 2> "$tmp/err"
+check "a foreign folder is refused" 1 $?
+expect_stderr "the refusal names the folder" "foreign: exists and is not an earlier"
+[ "$(cat "$tmp/foreign/notes.txt")" = keep ] && [ "$(ls "$tmp/foreign")" = notes.txt ]
+check "the foreign folder is untouched" 0 $?
+
+# bad inputs: clear errors naming the file; no OUTDIR, no temporary folder
+head -c 300 "$root/tests/handmade/brick_wall/preview.png" > "$tmp/truncated.png"
+py "$root/tests/cli/lib/make_images.py" png "$tmp/one.png" 1 1
+py "$root/tests/cli/lib/make_images.py" nan-exr "$tmp/nan.exr" 40 40
+for bad in truncated.png one.png nan.exr missing.png; do
+    "$imsynth" predict "$tmp/$bad" -o "$tmp/bad" $fast 2> "$tmp/err"
+    check "$bad is an error" 1 $?
+    expect_stderr "$bad: the message names it" "$bad"
+    ls -d "$tmp"/bad* 2> /dev/null && { echo "FAIL: $bad left an output"; failures=$((failures + 1)); }
+    [ $bad = nan.exr ] && expect_stderr "NaN input: says what is wrong" "are NaN"
+    [ $bad = one.png ] && expect_stderr "1x1 input: says what is wrong" "at least 32 x 32"
+done
+"$imsynth" predict "$input" -o "$tmp/bad" --model "$tmp/nomodel" --quiet 2> "$tmp/err"
+check "a missing model is an error" 1 $?
+expect_stderr "the message names the model" "nomodel"
+"$imsynth" predict "$input" -o "$tmp/bad" --light sideways 2> "$tmp/err"
+check "a bad --light is a usage error" 2 $?
+finish
