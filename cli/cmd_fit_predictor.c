@@ -46,6 +46,11 @@ static const char *const help =
     "                          mean cross-entropy (default 10)\n"
     "  --seed S                initial weights, PCA test matrix, shuffling, dropout (default 1)\n"
     "  --threads T             worker threads (default: online CPUs); never changes a bit\n"
+    "  --half                  store the PCA basis and the catalogue in float16 (rounded\n"
+    "                          before training, so predictions see what training saw): a\n"
+    "                          model half the size, for shipping (assets/model)\n"
+    "  --catalogue N           keep the first N training samples (by id) in the retrieval\n"
+    "                          catalogue (default: all of them)\n"
     "  --restart               discard an unfinished run made with other settings\n"
     "  --quiet                 no progress\n";
 
@@ -104,6 +109,10 @@ int cmd_fit_predictor(int argc, char **argv)
             o.restart = 1;
             continue;
         }
+        if (!strcmp(a, "--half")) {
+            o.half = 1;
+            continue;
+        }
         if (i + 1 >= argc) {
             cli_error(sub, "%s needs a value (see --help)", a);
             return EXIT_USAGE;
@@ -122,6 +131,8 @@ int cmd_fit_predictor(int argc, char **argv)
             o.hidden = v;
         else if (!strcmp(a, "--val-fraction"))
             bad = cli_parse_double(sub, a, v, 0.001, 0.5, &o.val_fraction);
+        else if (!strcmp(a, "--catalogue"))
+            bad = cli_parse_ll(sub, a, v, 1, 1LL << 40, &o.catalogue);
         else if (!strcmp(a, "--max-ids"))
             bad = cli_parse_ll(sub, a, v, 2, 1LL << 40, &o.max_ids);
         else if (!strcmp(a, "--components"))

@@ -606,13 +606,17 @@ void nn_pca_transform(float *out, const float *X, const float *components,
 
 /* ---------------------------------------------------------------- checkpoints ------ */
 
-/* Tensor writer: n tensors (F32, shapes up to 2-D) and string metadata pairs into a
- * safetensors file, through a temporary file renamed into place. */
+/* Tensor writer: n tensors (shapes up to 2-D) and string metadata pairs into a
+ * safetensors file, through a temporary file renamed into place. A tensor is stored as F32
+ * (dtype NN_F32, the zero value) or, halving its bytes, as F16 (NN_F16: each value rounded
+ * to nearest even by nn_float_to_half; the caller rounds what it keeps in memory alike if
+ * it must agree with a reader). */
 typedef struct nn_tensor_out {
     const char *name;
     int ndim;
     int64_t shape[2];
     const float *data;
+    nn_dtype dtype; /* NN_F32 or NN_F16 */
 } nn_tensor_out;
 int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
                          const char *const *meta_kv, int n_meta, char *err, size_t errlen);

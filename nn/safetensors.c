@@ -370,14 +370,15 @@ int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
         if (n_meta || i)
             fputc(',', h);
         write_json_string(h, t->name);
-        fputs(":{\"dtype\":\"F32\",\"shape\":[", h);
+        unsigned size = t->dtype == NN_F16 ? 2 : 4;
+        fprintf(h, ":{\"dtype\":\"%s\",\"shape\":[", size == 2 ? "F16" : "F32");
         for (int d = 0; d < t->ndim; d++) {
             fprintf(h, "%s%lld", d ? "," : "", (long long)t->shape[d]);
             count *= (uint64_t)t->shape[d];
         }
         fprintf(h, "],\"data_offsets\":[%llu,%llu]}", (unsigned long long)offset,
-                (unsigned long long)(offset + 4 * count));
-        offset += 4 * count;
+                (unsigned long long)(offset + size * count));
+        offset += size * count;
     }
     fputc('}', h);
     if (fclose(h)) {
@@ -407,18 +408,21 @@ int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
         size_t count = 1;
         for (int d = 0; d < t->ndim; d++)
             count *= (size_t)t->shape[d];
-        // little-endian float32, byte by byte so the file is the same on any host
+        // little-endian float32 or float16, byte by byte so the file is the same on any host
         unsigned char buf[4096];
-        size_t k = 0;
+        size_t k = 0, size = t->dtype == NN_F16 ? 2 : 4;
         while (ok && k < count) {
-            size_t chunk = count - k < sizeof buf / 4 ? count - k : sizeof buf / 4;
+            size_t chunk = count - k < sizeof buf / size ? count - k : sizeof buf / size;
             for (size_t q = 0; q < chunk; q++) {
                 uint32_t bits;
-                memcpy(&bits, &t->data[k + q], 4);
-                for (int b = 0; b < 4; b++)
-                    buf[4 * q + b] = (unsigned char)(bits >> (8 * b));
+                if (size == 2)
+                    bits = nn_float_to_half(t->data[k + q]);
+                else
+                    memcpy(&bits, &t->data[k + q], 4);
+                for (size_t b = 0; b < size; b++)
+                    buf[size * q + b] = (unsigned char)(bits >> (8 * b));
             }
-            ok = fwrite(buf, 4, chunk, f) == chunk;
+            ok = fwrite(buf, size, chunk, f) == chunk;
             k += chunk;
         }
     }

@@ -350,6 +350,12 @@ typedef struct predictor_fit_options {
     long long max_ids;            /* 0: every sample; else the first max_ids ids */
     const char *out_dir;          /* must not exist */
     int components;               /* PCA components (the network's inputs) */
+    int half;                     /* store the PCA basis and the catalogue's reduced
+                                   * descriptors as float16 (the basis rounded before it is
+                                   * used, so training and prediction see the same values):
+                                   * half the bytes of a model to ship */
+    long long catalogue;          /* 0: every training sample in the catalogue; else the
+                                   * first N (by id) */
     const char *hidden;           /* hidden widths, "1024-1024" */
     int epochs, batch;
     float lr, weight_decay, dropout;

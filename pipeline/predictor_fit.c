@@ -244,14 +244,14 @@ static void run_file(char *out, size_t len, const char *dir, const char *what, i
 
 static int write_transform(const char *path, const float *scale, const float *mean,
                            const float *std, const float *comp, const float *var,
-                           const float *mean_params, size_t d, int k, int np, char *err,
-                           size_t errlen)
+                           const float *mean_params, size_t d, int k, int np, int half,
+                           char *err, size_t errlen)
 {
     nn_tensor_out t[6] = {
         {"signed_log.scale", 1, {(int64_t)d}, scale},
         {"standardise.mean", 1, {(int64_t)d}, mean},
         {"standardise.std", 1, {(int64_t)d}, std},
-        {"pca.components", 2, {k, (int64_t)d}, comp},
+        {"pca.components", 2, {k, (int64_t)d}, comp, half ? NN_F16 : NN_F32},
         {"pca.variance", 1, {k}, var},
         {"params.mean", 1, {np}, mean_params},
     };
@@ -259,9 +259,13 @@ static int write_transform(const char *path, const float *scale, const float *me
     return nn_safetensors_write(path, t, 6, meta, 1, err, errlen);
 }
 
-static int write_catalogue(const char *path, const rowset *r, int k, int np, char *err,
-                           size_t errlen)
+static int write_catalogue(const char *path, const rowset *full, int k, int np, int half,
+                           long long max_rows, char *err, size_t errlen)
 {
+    rowset first = *full; /* the first max_rows rows (rows are in id order) */
+    if (max_rows > 0 && (size_t)max_rows < first.n)
+        first.n = (size_t)max_rows;
+    const rowset *r = &first;
     float *lo = malloc((r->n ? r->n : 1) * sizeof(float)),
           *hi = malloc((r->n ? r->n : 1) * sizeof(float));
     if (!lo || !hi) {
@@ -275,7 +279,7 @@ static int write_catalogue(const char *path, const rowset *r, int k, int np, cha
         hi[i] = (float)(r->ids[i] >> 24);
     }
     nn_tensor_out t[4] = {
-        {"catalogue.z", 2, {(int64_t)r->n, k}, r->Z},
+        {"catalogue.z", 2, {(int64_t)r->n, k}, r->Z, half ? NN_F16 : NN_F32},
         {"catalogue.params", 2, {(int64_t)r->n, np}, r->params},
         {"catalogue.id_low24", 1, {(int64_t)r->n}, lo},
         {"catalogue.id_high", 1, {(int64_t)r->n}, hi},
@@ -378,6 +382,10 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     cJSON_AddNumberToObject(j, "train_rows", (double)n_train);
     cJSON_AddNumberToObject(j, "val_rows", (double)n_val);
     cJSON_AddNumberToObject(j, "components", o->components);
+    if (o->half)
+        cJSON_AddBoolToObject(j, "half", 1);
+    if (o->catalogue)
+        cJSON_AddNumberToObject(j, "catalogue", (double)o->catalogue);
     cJSON_AddStringToObject(j, "arch", arch);
     cJSON_AddNumberToObject(j, "epochs", o->epochs);
     cJSON_AddNumberToObject(j, "batch", o->batch);
@@ -685,11 +693,14 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
             pipeline_error(err, errlen, "%s", msg);
             goto done;
         }
+        if (o->half) /* as stored, so that the network learns from what predictions see */
+            for (size_t i = 0; i < (size_t)k * d; i++)
+                comp[i] = nn_half_to_float(nn_float_to_half(comp[i]));
         for (size_t i = 0; i < train.n; i++)
             for (int c = 0; c < np; c++)
                 mean_p[c] += train.params[i * (size_t)np + (size_t)c] / (float)train.n;
         text = state_json(settings, &st); /* epochs_done 0: a kill from here on resumes */
-        if (write_transform(path, scale, mean, std, comp, var, mean_p, d, k, np, msg,
+        if (write_transform(path, scale, mean, std, comp, var, mean_p, d, k, np, o->half, msg,
                             sizeof msg) ||
             !text || pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
@@ -865,7 +876,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         goto done;
     }
     snprintf(path, sizeof path, "%s/catalogue.safetensors", partial);
-    if (write_catalogue(path, &train, k, np, msg, sizeof msg) ||
+    if (write_catalogue(path, &train, k, np, o->half, o->catalogue, msg, sizeof msg) ||
         write_losses(partial, st.train_loss, st.val_loss, st.acc, st.r2, st.epochs_done, msg,
                      sizeof msg)) {
         pipeline_error(err, errlen, "%s", msg);

@@ -126,4 +126,22 @@ check "a failed fit leaves nothing" 0 $?
 "$imsynth" fit-predictor $fit --components 4000 -o "$tmp/x" 2> "$tmp/err"
 check "more components than rows" 1 $?
 expect_stderr "says the limit" "at most min(rows - 1, features)"
+# --half --catalogue: the basis and the catalogue in float16, the catalogue cut to its
+# first ids; the model still predicts and retrieves
+"$imsynth" fit-predictor $fit --epochs 6 --threads 2 --half --catalogue 5 -o "$tmp/mh"
+check "fit --half --catalogue 5" 0 $?
+py "
+import json, struct
+def header(p):
+    b = open(p, 'rb').read(); n = struct.unpack('<Q', b[:8])[0]; return json.loads(b[8:8 + n])
+t32, t16 = header('$tmp/m1/transform.safetensors'), header('$tmp/mh/transform.safetensors')
+assert t32['pca.components']['dtype'] == 'F32' and t16['pca.components']['dtype'] == 'F16'
+assert t16['pca.components']['shape'] == t32['pca.components']['shape']
+c = header('$tmp/mh/catalogue.safetensors')
+assert c['catalogue.z']['dtype'] == 'F16' and c['catalogue.z']['shape'][0] == 5, c['catalogue.z']
+assert c['catalogue.params']['shape'][0] == 5
+"
+check "float16 basis and catalogue, 5 catalogue rows" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/mh" --top-k 3 --nearest 5 --hypotheses "$tmp/hh.json" > /dev/null
+check "a --half model predicts and retrieves" 0 $?
 finish

@@ -74,6 +74,40 @@ static void test_valid_file_all_dtypes(void **state)
     nn_safetensors_close(&st);
 }
 
+/* The writer: F32 and F16 tensors side by side; read back, F32 exactly and F16 as
+ * nn_float_to_half rounds (a value between two halves goes to the nearer); the F16 tensor
+ * takes 2 bytes a value. */
+static void test_write_f32_f16(void **state)
+{
+    (void)state;
+    const float a[3] = {1.0f, -2.5f, 3.1f};
+    const float h[4] = {1.5f, 0.1f, -65504.0f, 1e-7f};
+    nn_tensor_out t[2] = {
+        {"a", 1, {3}, a, NN_F32},
+        {"h", 2, {2, 2}, h, NN_F16},
+    };
+    char path[256], err[512];
+    snprintf(path, sizeof path, "%s/written.safetensors", dir);
+    const char *meta[] = {"format", "test"};
+    assert_int_equal(nn_safetensors_write(path, t, 2, meta, 1, err, sizeof err), 0);
+    nn_safetensors st;
+    assert_int_equal(nn_safetensors_open(path, &st, err, sizeof err), 0);
+    assert_int_equal(st.count, 2);
+    float v[4];
+    int64_t s3[1] = {3}, s22[2] = {2, 2};
+    assert_int_equal(nn_safetensors_read_f32(&st, "a", 1, s3, v, err, sizeof err), 0);
+    assert_memory_equal(v, a, sizeof a);
+    assert_int_equal(nn_safetensors_read_f32(&st, "h", 2, s22, v, err, sizeof err), 0);
+    for (int i = 0; i < 4; i++) {
+        assert_true(v[i] == nn_half_to_float(nn_float_to_half(h[i])));
+        assert_true(fabsf(v[i] - h[i]) <= fabsf(h[i]) * 0x1p-11f + 0x1p-25f);
+    }
+    int hi = nn_safetensors_find(&st, "h");
+    assert_true(hi >= 0 && st.tensors[hi].dtype == NN_F16);
+    assert_int_equal(st.tensors[hi].end - st.tensors[hi].begin, 8);
+    nn_safetensors_close(&st);
+}
+
 /* Opens a broken file and checks the message names the file and contains `expect`. */
 static void expect_refused(const char *name, const char *header, size_t ndata, int64_t lie_hlen,
                            const char *expect)
@@ -156,6 +190,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_valid_file_all_dtypes),
         cmocka_unit_test(test_lying_files),
+        cmocka_unit_test(test_write_f32_f16),
         cmocka_unit_test(test_vgg_load_errors),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
