@@ -25,6 +25,8 @@ static const char *const help =
     "  nearest-topk    the --top-k nearest, rendered; the best by the training descriptor\n"
     "  predictor       the predictor's most probable hypothesis\n"
     "  predictor-topk  its --top-k hypotheses, rendered; the best by the training descriptor\n"
+    "  nearest-refine, predictor-refine  the two -topk picks refined as imsynth predict\n"
+    "                  does: --refine renders of the search, loss G + 4 C (docs/predict.md)\n"
     "A candidate is rendered with the --preset in the input's own scene (a synthetic row's\n"
     "view: light, flash, exposure, white balance, texture transform); every render of one\n"
     "input shares one seed, a function of --seed and the input only.\n"
@@ -56,6 +58,9 @@ static const char *const help =
     "  --handmade DIR        the hand-made materials (e.g. tests/handmade)\n"
     "  -o, --output DIR      the report folder (required)\n"
     "  --top-k K             candidates of the -topk methods (default 8)\n"
+    "  --refine N            renders of each refinement, its start's included (default 64,\n"
+    "                        predict's; 1: the -refine rows are their starts)\n"
+    "  --method M            the refinement: coordinate (default), es, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --limit N             the first N rows of the test dataset only\n"
     "  --threads T           workers (default: online CPUs); never changes report.json\n"
@@ -90,6 +95,9 @@ int cmd_evaluate(int argc, char **argv)
     o.blender = 4;
     o.sheet_inputs = 16;
     o.preset = datagen_preset_find("datagen");
+    refine_options_default(&o.refine);
+    o.refine.budget = 64; /* predict's */
+    o.colour_weight = PIPELINE_COLOUR_WEIGHT;
     int open_line = 0;
     o.progress = progress;
     o.progress_ctx = &open_line;
@@ -124,6 +132,17 @@ int cmd_evaluate(int argc, char **argv)
             if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.top_k = (int)n;
+        } else if (!strcmp(a, "--refine")) {
+            if (cli_parse_ll(sub, a, v, 1, 100000, &n))
+                return EXIT_USAGE;
+            o.refine.budget = (int)n;
+        } else if (!strcmp(a, "--method")) {
+            int m = refine_method_parse(v);
+            if (m < 0) {
+                cli_error(sub, "--method: \"%s\" is not coordinate, es or random", v);
+                return EXIT_USAGE;
+            }
+            o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))
                 return EXIT_USAGE;

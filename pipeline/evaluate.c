@@ -57,9 +57,11 @@ typedef struct method {
     source src;
     int topk; /* 0: the source's first candidate; 1: the best of --top-k by rendering */
     const char *what;
+    const char *refines; /* NULL, or the method whose pick this one refines (--refine renders
+                            of refine_search with predict's loss), listed before it */
 } method;
 
-/* A new method (refinement, say) is one entry here and, if it needs one, one source. */
+/* A new method is one entry here and, if it needs one, one source. */
 static const method methods[] = {
     {"mean", SOURCE_MEAN, 0, "the training set's mean parameters (the thesis's result)"},
     {"random", SOURCE_RANDOM, 0, "a catalogue sample drawn per input (seeded)"},
@@ -69,8 +71,22 @@ static const method methods[] = {
     {"predictor", SOURCE_PREDICTOR, 0, "the predictor's most probable hypothesis"},
     {"predictor-topk", SOURCE_PREDICTOR, 1,
      "the predictor's k hypotheses, rendered; the best by the training descriptor"},
+    {"nearest-refine", SOURCE_NEAREST, 1, "nearest-topk's pick, refined as imsynth predict does",
+     "nearest-topk"},
+    {"predictor-refine", SOURCE_PREDICTOR, 1,
+     "predictor-topk's pick, refined as imsynth predict does", "predictor-topk"},
 };
 enum { N_METHODS = sizeof methods / sizeof methods[0], METHOD_MEAN = 0, METHOD_NEAREST = 2 };
+
+/* The index of the method named `name` (a name in the table). */
+static int method_index(const char *name)
+{
+    for (int m = 0; m < N_METHODS; m++)
+        if (!strcmp(methods[m].name, name))
+            return m;
+    assert(!"a method's `refines` names a method of the table");
+    return 0;
+}
 
 /* ---------------------------------------------------------------- inputs, results -- */
 
@@ -143,6 +159,9 @@ typedef struct shared {
     render_scene *scene, *flash_scene;
     int width, height; /* the scene's resolution */
     int tile;
+    refine_space space; /* the -refine methods' */
+    refine_kind *kind;
+    int *choices;
 } shared;
 
 typedef struct worker {
@@ -331,6 +350,46 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
     return n;
 }
 
+/* ---------------------------------------------------------------- refinement ------ */
+
+/* The refinement's loss, predict's (pipeline_refine_loss): the training descriptor's Gram
+ * distance and the colour term of a render at the evaluation's preset and the input's seed.
+ * Proposals are not kept as candidates (a search renders tens of them). */
+static int refine_loss_cb(void *ctx, const float *params, double *loss, char *err,
+                          size_t errlen)
+{
+    input_work *iw = ctx;
+    worker *w = iw->w;
+    int k = w->sh->train;
+    image img = {0};
+    float *desc = NULL;
+    int rc = render_params(iw, params, &img, err, errlen);
+    if (rc == 0)
+        rc = describe(w, k, &img, &desc, err, errlen);
+    double c = 0.0;
+    if (rc == 0)
+        rc = evaluate_colour_distance(&img, &iw->in->img, &c, err, errlen);
+    if (rc == 0)
+        *loss = pipeline_refine_loss(evaluate_gram_distance(iw->in_desc[k], desc, w->offsets[k],
+                                                            w->n_layers[k]),
+                                     c, w->sh->o->colour_weight);
+    free(desc);
+    image_free(&img);
+    return rc;
+}
+
+static int refine_active_cb(void *ctx, const float *params, uint8_t *active, char *err,
+                            size_t errlen)
+{
+    input_work *iw = ctx;
+    worker *w = iw->w;
+    memcpy(w->params.values, params, (size_t)w->sh->n_params * sizeof(float));
+    sg_error e;
+    if (sg_graph_bind_params(w->graph, &w->params, &e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", w->sh->graph_path, e.msg);
+    return pipeline_active_params(w->graph, w->sh->o->blender, active, NULL, err, errlen);
+}
+
 /* The input's tile for its sheet row. */
 static int tile_of(const shared *sh, const image *img, image *tile)
 {
@@ -383,6 +442,31 @@ static int evaluate_input(worker *w, const input *in, result *r)
     const float *model_in = in->stored_desc ? in->stored_desc : iw.in_desc[sh->train];
 
     for (int m = 0; m < N_METHODS && rc == 0; m++) {
+        if (methods[m].refines) {
+            int from = method_index(methods[m].refines);
+            memcpy(buf, r->chosen + (size_t)from * np, np * sizeof(float));
+            refine_options ro = o->refine;
+            ro.seed = iw.seed;
+            refine_result rr;
+            if (refine_search(&sh->space, &ro, refine_loss_cb, refine_active_cb, &iw, buf, &rr,
+                              err, errlen)) {
+                rc = -1;
+                break;
+            }
+            refine_result_free(&rr);
+            candidate *c = candidate_get(&iw, buf, err, errlen);
+            if (!c || distances(&iw, &c->img, c->desc, r->dist[m], err, errlen)) {
+                rc = -1;
+                break;
+            }
+            memcpy(r->chosen + (size_t)m * np, c->params, np * sizeof(float));
+            r->chosen_index[m] = rr.accepted;
+            r->n_candidates[m] = rr.evals;
+            r->chosen_id[m] = -1;
+            if (in->sheet_row >= 0 && tile_of(sh, &c->img, &r->tiles[1 + m]))
+                rc = pipeline_error(err, errlen, "out of memory");
+            continue;
+        }
         int n = source_candidates(&iw, methods[m].src, methods[m].topk ? ask : 1, model_in, buf,
                                   ids, err, errlen);
         if (n < 0) {
@@ -940,6 +1024,9 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "handmade", o->handmade_dir ? o->handmade_dir : "");
     cJSON_AddStringToObject(cmd, "preset", o->preset->name);
     cJSON_AddNumberToObject(cmd, "top_k", o->top_k);
+    cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
+    cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
+    cJSON_AddNumberToObject(cmd, "colour_weight", o->colour_weight);
     cJSON_AddNumberToObject(cmd, "limit", (double)o->limit);
     cJSON_AddNumberToObject(cmd, "seed", (double)o->seed);
     cJSON_AddNumberToObject(cmd, "blender", o->blender);
@@ -1575,7 +1662,8 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     if (!o->model_dir || !o->out_dir || (!o->test_path && !o->handmade_dir))
         return pipeline_error(err, errlen, "evaluate: needs a model, an output folder and a test "
                                            "dataset or a hand-made folder");
-    if (o->top_k < 1 || o->top_k > 256 || !o->preset || (o->blender != 3 && o->blender != 4))
+    if (o->top_k < 1 || o->top_k > 256 || !o->preset || (o->blender != 3 && o->blender != 4) ||
+        o->refine.budget < 1)
         return pipeline_error(err, errlen, "evaluate: top-k in 1..256, a preset and Blender 3 "
                                            "or 4 are required");
     /* "report/" names the folder "report": the temporary one is its sibling. */
@@ -1639,6 +1727,14 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     for (int k = 0; k < sh.n_params; k++)
         if (role_of(sh.names[k]) == ROLE_SEED)
             sh.offset_param = k;
+    sh.kind = malloc((size_t)sh.n_params * sizeof *sh.kind);
+    sh.choices = malloc((size_t)sh.n_params * sizeof *sh.choices);
+    if (!sh.kind || !sh.choices) {
+        pipeline_error(err, errlen, "out of memory");
+        goto done;
+    }
+    refine_space_for_params(sh.names, sh.n_params, sh.kind, sh.choices);
+    sh.space = (refine_space){.n = sh.n_params, .kind = sh.kind, .choices = sh.choices};
     rc_ctx.model_config = predictor_dataset_config(sh.pred);
     model_cfg = cJSON_Parse(rc_ctx.model_config ? rc_ctx.model_config : "");
     model_desc = config_descriptor(rc_ctx.model_config);
@@ -1957,6 +2053,8 @@ done:
     sg_graph_free(g);
     free(sh.scene_text);
     free(sh.flash_text);
+    free(sh.kind);
+    free(sh.choices);
     render_scene_free(sh.scene);
     render_scene_free(sh.flash_scene);
     predictor_free(sh.pred);

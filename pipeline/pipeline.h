@@ -376,6 +376,74 @@ void predictor_fit_defaults(predictor_fit_options *o);
  * message. */
 int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- refinement ------- */
+/*
+ * A derivative-free search over parameters in [0, 1] (refine.c): the step after the
+ * predictor's and the catalogue's candidates, in `predict` and `evaluate`. The caller owns
+ * the loss (render, describe, compare) and says, for the current point, which parameters
+ * matter (pipeline_active_params); the search moves only those.
+ */
+typedef enum refine_kind {
+    REFINE_VALUE,    /* in [0, 1], clamped */
+    REFINE_CIRCULAR, /* in [0, 1), 0 and 1 the same (a hue): wrapped */
+    REFINE_SELECTOR, /* choices[i] bins; the value is its bin's centre */
+    REFINE_FIXED     /* never moved (Pattern Offset: a seed, not a look) */
+} refine_kind;
+
+typedef struct refine_space {
+    int n;
+    const refine_kind *kind; /* n */
+    const int *choices;      /* n: a selector's number of choices (others ignored) */
+} refine_space;
+
+typedef enum refine_method { REFINE_COORDINATE, REFINE_ES, REFINE_RANDOM, REFINE_N_METHODS } refine_method;
+extern const char *const refine_method_names[REFINE_N_METHODS];
+/* The method named `name` ("coordinate", "es", "random"), or -1. */
+int refine_method_parse(const char *name);
+
+typedef struct refine_options {
+    refine_method method;
+    int budget;      /* loss evaluations in all, the start's included (>= 1) */
+    double step;     /* a value's first step (coordinate) or the first sigma (es) */
+    double min_step; /* steps never shrink below this */
+    uint64_t seed;
+} refine_options;
+/* coordinate, budget 48, step 0.25, min_step 1/128, seed 1. */
+void refine_options_default(refine_options *o);
+
+/* The search space of a super-shader's parameters, from their names: "Mult N" selectors,
+ * "Pattern Offset" fixed (a seed, not a look), hues circular, the rest values. kind and
+ * choices have n entries. */
+void refine_space_for_params(const char *const *names, int n, refine_kind *kind, int *choices);
+
+/* The loss predict and evaluate's refinement minimise: gram + colour_weight x colour (the
+ * training descriptor's Gram distance and evaluate_colour_distance's term). One definition,
+ * so that the evaluation measures the search predict runs. */
+double pipeline_refine_loss(double gram, double colour, double colour_weight);
+#define PIPELINE_COLOUR_WEIGHT 4.0 /* predict's default */
+
+/* The loss of a parameter set (lower is better): 0, or -1 with a message. */
+typedef int (*refine_loss_fn)(void *ctx, const float *params, double *loss, char *err,
+                              size_t errlen);
+/* Which parameters matter at params (active[i] 0 or 1): 0, or -1 with a message. */
+typedef int (*refine_active_fn)(void *ctx, const float *params, uint8_t *active, char *err,
+                                size_t errlen);
+
+typedef struct refine_result {
+    double *curve; /* budget entries, the first `evals`: best loss after each evaluation */
+    int evals, accepted;
+    int start_movable; /* parameters the search could move at the start */
+    double start_loss, best_loss;
+} refine_result;
+
+/* Searches from params (in: the start, every value in [0, 1]; out: the best found) with
+ * o->method, deterministically for o->seed. The result's curve is malloc'd: free with
+ * refine_result_free. Returns 0, or -1 with a message (a callback's, or a bad start). */
+int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                  refine_active_fn active, void *ctx, float *params, refine_result *r,
+                  char *err, size_t errlen);
+void refine_result_free(refine_result *r);
+
 /* ---------------------------------------------------------------- evaluation ------- */
 /*
  * `imsynth evaluate` (evaluate.c; docs/evaluation.md): every test input (a synthetic test
@@ -435,6 +503,8 @@ typedef struct evaluate_options {
     int blender;              /* 4 or 3 */
     uint64_t seed;            /* render seeds and the random method's draws */
     int sheet_inputs;         /* synthetic inputs on the contact sheet (16) */
+    refine_options refine;    /* the -refine methods' search (budget 1: their start) */
+    double colour_weight;     /* its loss's (PIPELINE_COLOUR_WEIGHT) */
     /* After every input, with counts and seconds since the start. May be NULL. */
     void (*progress)(void *ctx, long long done, long long todo, double seconds);
     void *progress_ctx;
@@ -447,63 +517,6 @@ typedef struct evaluate_options {
  * The folder is written as o->out_dir.tmp.PID and renamed when complete; on error nothing
  * is left. Returns 0, or -1 with a message naming the file and the place. */
 int evaluate_run(const evaluate_options *o, char *err, size_t errlen);
-
-/* ---------------------------------------------------------------- refinement ------- */
-/*
- * A derivative-free search over parameters in [0, 1] (refine.c): the step after the
- * predictor's and the catalogue's candidates, in `predict` and `evaluate`. The caller owns
- * the loss (render, describe, compare) and says, for the current point, which parameters
- * matter (pipeline_active_params); the search moves only those.
- */
-typedef enum refine_kind {
-    REFINE_VALUE,    /* in [0, 1], clamped */
-    REFINE_CIRCULAR, /* in [0, 1), 0 and 1 the same (a hue): wrapped */
-    REFINE_SELECTOR, /* choices[i] bins; the value is its bin's centre */
-    REFINE_FIXED     /* never moved (Pattern Offset: a seed, not a look) */
-} refine_kind;
-
-typedef struct refine_space {
-    int n;
-    const refine_kind *kind; /* n */
-    const int *choices;      /* n: a selector's number of choices (others ignored) */
-} refine_space;
-
-typedef enum refine_method { REFINE_COORDINATE, REFINE_ES, REFINE_RANDOM, REFINE_N_METHODS } refine_method;
-extern const char *const refine_method_names[REFINE_N_METHODS];
-/* The method named `name` ("coordinate", "es", "random"), or -1. */
-int refine_method_parse(const char *name);
-
-typedef struct refine_options {
-    refine_method method;
-    int budget;      /* loss evaluations in all, the start's included (>= 1) */
-    double step;     /* a value's first step (coordinate) or the first sigma (es) */
-    double min_step; /* steps never shrink below this */
-    uint64_t seed;
-} refine_options;
-/* coordinate, budget 48, step 0.25, min_step 1/128, seed 1. */
-void refine_options_default(refine_options *o);
-
-/* The loss of a parameter set (lower is better): 0, or -1 with a message. */
-typedef int (*refine_loss_fn)(void *ctx, const float *params, double *loss, char *err,
-                              size_t errlen);
-/* Which parameters matter at params (active[i] 0 or 1): 0, or -1 with a message. */
-typedef int (*refine_active_fn)(void *ctx, const float *params, uint8_t *active, char *err,
-                                size_t errlen);
-
-typedef struct refine_result {
-    double *curve; /* budget entries, the first `evals`: best loss after each evaluation */
-    int evals, accepted;
-    int start_movable; /* parameters the search could move at the start */
-    double start_loss, best_loss;
-} refine_result;
-
-/* Searches from params (in: the start, every value in [0, 1]; out: the best found) with
- * o->method, deterministically for o->seed. The result's curve is malloc'd: free with
- * refine_result_free. Returns 0, or -1 with a message (a callback's, or a bad start). */
-int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
-                  refine_active_fn active, void *ctx, float *params, refine_result *r,
-                  char *err, size_t errlen);
-void refine_result_free(refine_result *r);
 
 /* ---------------------------------------------------------------- predict ---------- */
 /*
@@ -530,7 +543,7 @@ typedef struct predict_options {
     const datagen_preset *search_preset; /* candidates and refinement ("datagen") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both */
-    double colour_weight;     /* loss = G + colour_weight x C (4) */
+    double colour_weight;     /* pipeline_refine_loss's (PIPELINE_COLOUR_WEIGHT) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     int blender;              /* 4 or 3 */
     uint64_t seed;            /* render noise (one seed for the whole run) */

@@ -45,7 +45,7 @@ void predict_options_default(predict_options *o)
     o->light = PREDICT_LIGHT_SCENE;
     o->blender = 4;
     o->seed = 1;
-    o->colour_weight = 4.0;
+    o->colour_weight = PIPELINE_COLOUR_WEIGHT;
 }
 
 const char *const predict_light_names[3] = {"scene", "flash", "auto"};
@@ -170,7 +170,10 @@ static int score(scorer *sc, const float *params, double *g, double *c, char *er
     return 0;
 }
 
-static double combine(const scorer *sc, double g, double c) { return g + sc->o->colour_weight * c; }
+static double combine(const scorer *sc, double g, double c)
+{
+    return pipeline_refine_loss(g, c, sc->o->colour_weight);
+}
 
 static int loss_cb(void *ctx, const float *params, double *loss, char *err, size_t errlen)
 {
@@ -595,14 +598,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    for (int i = 0; i < np; i++) {
-        const char *name = sc.params.names[i];
-        choices[i] = sg_param_mult_choices(name);
-        kind[i] = choices[i] >= 2                   ? REFINE_SELECTOR
-                  : strstr(name, "Pattern Offset") ? REFINE_FIXED
-                  : strstr(name, "Hue")            ? REFINE_CIRCULAR
-                                                   : REFINE_VALUE;
-    }
+    refine_space_for_params((const char *const *)sc.params.names, np, kind, choices);
     refine_space space = {.n = np, .kind = kind, .choices = choices};
     sc.scene = best_scene;
     refine_ctx rctx = {.sc = &sc, .budget = o->refine.budget, .best = best_loss};

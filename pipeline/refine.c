@@ -51,6 +51,22 @@ void refine_options_default(refine_options *o)
     o->seed = 1;
 }
 
+void refine_space_for_params(const char *const *names, int n, refine_kind *kind, int *choices)
+{
+    for (int i = 0; i < n; i++) {
+        choices[i] = sg_param_mult_choices(names[i]);
+        kind[i] = choices[i] >= 2                       ? REFINE_SELECTOR
+                  : strstr(names[i], "Pattern Offset") ? REFINE_FIXED
+                  : strstr(names[i], "Hue")            ? REFINE_CIRCULAR
+                                                       : REFINE_VALUE;
+    }
+}
+
+double pipeline_refine_loss(double gram, double colour, double colour_weight)
+{
+    return gram + colour_weight * colour;
+}
+
 /* Uniform in [0, 1). */
 static double uniform01(uint64_t *s) { return (double)(pipeline_splitmix64(s) >> 11) * 0x1p-53; }
 

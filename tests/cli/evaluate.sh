@@ -46,7 +46,7 @@ check "hand-made renders" 0 $?
 n_inputs=4; [ -n "$quick" ] && n_inputs=2
 cmp -s "$hm/render.exr" "$hm/shifted.exr" && { echo "FAIL: the shifted scene moved nothing"; failures=$((failures + 1)); }
 
-ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft"
+ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft --refine 4"
 "$imsynth" evaluate $ev --threads 2 -o "$tmp/r2/" > "$tmp/out" 2> "$tmp/err"
 check "evaluate, 2 threads" 0 $?
 expect_stderr "progress with an ETA" "ETA"
@@ -58,11 +58,11 @@ ls "$tmp" | grep -q '\.tmp\.' && { echo "FAIL: a temporary folder left behind"; 
 grep -q 'sheet-handmade.png' "$tmp/r2/index.html" && grep -q '<table>' "$tmp/r2/index.html"
 check "index.html shows tables and sheets" 0 $?
 
-# inputs.csv: the inputs (plain, augmented, hand-made, hand-made flash) x 6 methods x 3
+# inputs.csv: the inputs (plain, augmented, hand-made, hand-made flash) x 8 methods x 3
 # distances, all finite and positive.
 csv="$tmp/r2/inputs.csv"
 rows=$(($(wc -l < "$csv") - 1))
-[ "$rows" = $((n_inputs * 18)) ] && echo "ok: inputs.csv has $n_inputs x 6 x 3 rows" || { echo "FAIL: inputs.csv has $rows rows"; failures=$((failures + 1)); }
+[ "$rows" = $((n_inputs * 24)) ] && echo "ok: inputs.csv has $n_inputs x 8 x 3 rows" || { echo "FAIL: inputs.csv has $rows rows"; failures=$((failures + 1)); }
 sets="synthetic handmade"; [ -n "$quick" ] || sets="$sets synthetic-augmented handmade-flash"
 for s in $sets; do
     grep -q "^$s," "$csv" || { echo "FAIL: no $s input"; failures=$((failures + 1)); }
@@ -76,6 +76,15 @@ awk -F, '$4 == "mobilenetv2" { d[$2 "/" $3] = $7; if ($3 ~ /topk/) n[$2 "/" $3] 
             if (!(d[k] <= d[a[1] "/" base]) || n[k] != 2) { print k, d[k], d[a[1] "/" base], n[k]; bad = 1 } }
           exit bad }' "$csv"
 check "top-k picks by the training descriptor (never worse than its first)" 0 $?
+# Each -refine method ends no worse than its start under predict's loss (G + 4 C, raw), and
+# it spent the 4 renders of --refine.
+awk -F, '$4 == "mobilenetv2" { g[$2 "/" $3] = $5; if ($3 ~ /refine/) n[$2 "/" $3] = $8 }
+    $4 == "colour" { c[$2 "/" $3] = $5 }
+    END { for (k in n) { split(k, a, "/"); start = a[1] "/" a[2]; sub(/-refine/, "-topk", start)
+            l = g[k] + 4 * c[k]; l0 = g[start] + 4 * c[start]
+            if (!(l <= l0 * (1 + 1e-9)) || n[k] != 4) { print k, l, l0, n[k]; bad = 1 } }
+          exit bad }' "$csv"
+check "refinement never ends worse than its start" 0 $?
 # The mean method's R^2 is 0 wherever defined: R^2 is taken about the training mean.
 awk -F, '$2 == "mean" && $4 == "value" && $9 !~ /nan/ && $9 != 0 { print; bad = 1 } END { exit bad }' \
     "$tmp/r2/summary.csv"
