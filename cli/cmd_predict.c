@@ -32,6 +32,8 @@ static const char *const help =
     "  preview.png    our render of it in the scene\n"
     "  compare.png    input | preview | the refinement's loss curve\n"
     "  report.json    candidates, losses, the winner, the curve, timings\n"
+    "  material.blend with --blend: the material on our scene's plane, built by Blender\n"
+    "                 (blender on PATH, or $IMSYNTH_BLENDER) with import_material.py\n"
     "\n"
     "options:\n"
     "  -o, --output OUTDIR    the output folder (required)\n"
@@ -49,6 +51,7 @@ static const char *const help =
     "  --seed S               render noise seed (default 1)\n"
     "  --blender 4|3          node and BSDF semantics (default 4)\n"
     "  --graph G.json         the super-shader (default assets/supershader.json)\n"
+    "  --blend                also write material.blend (needs Blender 3.4 or 4.x)\n"
     "  --quiet                no progress on stderr\n";
 
 typedef struct progress_state {
@@ -100,6 +103,10 @@ int cmd_predict(int argc, char **argv)
         }
         if (!strcmp(a, "--quiet")) {
             quiet = 1;
+            continue;
+        }
+        if (!strcmp(a, "--blend")) {
+            o.blend = getenv("IMSYNTH_BLENDER") ? getenv("IMSYNTH_BLENDER") : "blender";
             continue;
         }
         if (i + 1 >= argc) {

@@ -547,6 +547,9 @@ typedef struct predict_options {
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     int blender;              /* 4 or 3 */
     uint64_t seed;            /* render noise (one seed for the whole run) */
+    const char *blend;        /* NULL, or a Blender executable: OUTDIR also gets
+                               * material.blend, built by blender/import_material.py (the
+                               * material on our scene's plane) */
     /* After every render with the stage ("describe", "candidates", "refine", "final
      * render"), counts and the best loss so far. May be NULL. */
     void (*progress)(void *ctx, const char *stage, int done, int todo, double best);

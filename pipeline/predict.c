@@ -19,12 +19,14 @@
  * replaced only when it is an earlier predict's output (its report.json says so).
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <dirent.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -361,6 +363,44 @@ static int check_out_dir(const char *dir, int *exists, char *err, size_t errlen)
                               "%s: exists and is not an earlier `imsynth predict` output (no "
                               "report.json of format %s); not replacing it",
                               dir, PREDICT_FORMAT);
+    return 0;
+}
+
+/* material.blend: Blender builds the material (and the scene) from material.json. Its
+ * output goes to OUTDIR.tmp.PID/blender.log, so that a failure can be read there. */
+static int write_blend(const char *blender, const char *dir, char *err, size_t errlen)
+{
+    char script[4096], json[4200], blend[4200], log[4200];
+    if (pipeline_find_data("blender/import_material.py", script, sizeof script, err, errlen))
+        return -1;
+    snprintf(json, sizeof json, "%s/material.json", dir);
+    snprintf(blend, sizeof blend, "%s/material.blend", dir);
+    snprintf(log, sizeof log, "%s/blender.log", dir);
+    pid_t pid = fork();
+    if (pid < 0)
+        return pipeline_error(err, errlen, "fork: %s", strerror(errno));
+    if (pid == 0) { /* only async-signal-safe calls until exec: the parent has threads */
+        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0666);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        execlp(blender, blender, "-b", "--factory-startup", "-noaudio", "-P", script, "--",
+               json, "--save", blend, "--scene", (char *)NULL);
+        static const char msg[] = "imsynth predict: cannot run Blender\n";
+        if (write(2, msg, sizeof msg - 1) < 0)
+            _exit(126);
+        _exit(127);
+    }
+    int status;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR)
+            return pipeline_error(err, errlen, "waitpid: %s", strerror(errno));
+    struct stat st;
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || stat(blend, &st) != 0)
+        return pipeline_error(err, errlen, "%s could not build material.blend (exit %d)",
+                              blender, WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+    unlink(log);
     return 0;
 }
 
@@ -731,6 +771,21 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     snprintf(path, sizeof path, "%s/report.json", tmp_dir);
     if (write_json(path, report, err, errlen))
         goto done;
+
+    if (o->blend) {
+        progress(o, "blender", 0, 1, rr.best_loss);
+        if (write_blend(o->blend, tmp_dir, err, errlen)) {
+            /* keep the log where the user can read it: the rest is removed */
+            char kept[4200], log[4200];
+            snprintf(log, sizeof log, "%s/blender.log", tmp_dir);
+            snprintf(kept, sizeof kept, "%s.blender.log", o->out_dir);
+            if (rename(log, kept) == 0) {
+                size_t n = strlen(err);
+                snprintf(err + n, errlen > n ? errlen - n : 0, "; its output is in %s", kept);
+            }
+            goto done;
+        }
+    }
 
     /* Into place: an earlier output moves aside first, and goes once the new one is in. */
     if (exists) {

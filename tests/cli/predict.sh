@@ -81,6 +81,19 @@ done
 "$imsynth" predict "$input" -o "$tmp/bad" --model "$tmp/nomodel" --quiet 2> "$tmp/err"
 check "a missing model is an error" 1 $?
 expect_stderr "the message names the model" "nomodel"
+# --blend: Blender missing is an error that keeps Blender's output and nothing else
+IMSYNTH_BLENDER=/nonexistent "$imsynth" predict "$input" -o "$tmp/bl" $fast --blend 2> "$tmp/err"
+check "--blend without Blender is an error" 1 $?
+expect_stderr "says where Blender's output is" "bl.blender.log"
+[ ! -e "$tmp/bl" ] && [ -s "$tmp/bl.blender.log" ] && ! ls -d "$tmp"/bl.tmp.* 2> /dev/null
+check "--blend failure: no OUTDIR, the log kept" 0 $?
+if command -v blender > /dev/null 2>&1; then
+    "$imsynth" predict "$input" -o "$tmp/bl" $fast --blend
+    check "--blend with Blender" 0 $?
+    [ -s "$tmp/bl/material.blend" ]; check "material.blend written" 0 $?
+else
+    echo "skip: no blender on PATH (--blend with Blender untested here)"
+fi
 "$imsynth" predict "$input" -o "$tmp/bad" --light sideways 2> "$tmp/err"
 check "a bad --light is a usage error" 2 $?
 finish
