@@ -29,6 +29,7 @@ int cmd_infer(int argc, char **argv);
 int cmd_forest(int argc, char **argv);
 int cmd_fit_predictor(int argc, char **argv);
 int cmd_predict(int argc, char **argv);
+int cmd_search(int argc, char **argv);
 int cmd_predict_params(int argc, char **argv);
 int cmd_evaluate(int argc, char **argv);
 

@@ -31,6 +31,7 @@ static const subcommand subcommands[] = {
     {"fit-predictor", cmd_fit_predictor, "train the parameter predictor on a dataset (model dir)"},
     {"predict", cmd_predict, "an image in, a Blender material out (the main job)"},
     {"predict-params", cmd_predict_params, "super-shader parameters for an image (top-k, JSON)"},
+    {"search", cmd_search, "the materials nearest an image (catalogue or dataset), as a contact sheet"},
     {"evaluate", cmd_evaluate, "a model against test inputs: every method, parameter and image space"},
 };
 

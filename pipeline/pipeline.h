@@ -562,4 +562,26 @@ void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);
 
+/* ---------------------------------------------------------------- search ----------- */
+/*
+ * `imsynth search` (search.c): the k materials nearest an image, nearest first, as a
+ * labelled contact sheet (input first) and, if asked, a JSON list (id, view, distance, the
+ * `imsynth export --seed ID` command, parameters). From a model's catalogue (default: the
+ * bundled model; its retrieval distance; hits rendered at `preset`) or from a dataset (the
+ * Gram distance of its stored descriptor over every row; its stored renders shown).
+ */
+typedef struct search_options {
+    const char *image_path, *sheet_path;
+    const char *json_path;    /* NULL: none */
+    const char *model_dir;    /* NULL: assets/model (when no dataset_path) */
+    const char *dataset_path; /* search this dataset instead of a catalogue */
+    const char *graph_path, *scene_path; /* NULL: found with pipeline_find_data */
+    int k;
+    int cols, tile;           /* the sheet (0: 5 columns of 160 pixels) */
+    const datagen_preset *preset; /* renders of catalogue hits */
+    int threads, blender;
+    int print;                /* also "id\tview\tdistance" lines on stdout */
+} search_options;
+int search_run(const search_options *o, char *err, size_t errlen);
+
 #endif

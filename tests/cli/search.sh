@@ -1,0 +1,48 @@
+#!/bin/sh
+# imsynth search: from a dataset, a render of sample 5's parameters finds sample 5 first
+# (under another noise seed); from a model's catalogue, k hits ordered by distance, each
+# with its export command; the sheet is written; bad sources are clear errors.
+# Usage: search.sh IMSYNTH REPO_ROOT
+imsynth=$1
+root=$2
+. "$root/tests/cli/lib/harness.sh"
+py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
+
+"$imsynth" datagen --out "$tmp/ds.sqlite" --count 16 --preset draft --quiet
+check "a draft dataset with renders" 0 $?
+"$imsynth" sample --seed 5 -o "$tmp/p5.json" && "$imsynth" render "$root/assets/supershader.json" \
+    --params "$tmp/p5.json" --spp 1 --max-spp 0 --seed 99 -o "$tmp/r5.exr" > /dev/null
+check "a render of sample 5 (another noise seed)" 0 $?
+
+"$imsynth" search "$tmp/r5.exr" --dataset "$tmp/ds.sqlite" -k 3 -o "$tmp/sheet.png" \
+    --json "$tmp/hits.json" > "$tmp/out"
+check "search a dataset" 0 $?
+[ -s "$tmp/sheet.png" ]; check "the sheet is written" 0 $?
+[ "$(head -1 "$tmp/out" | cut -f1)" = 5 ]; check "sample 5 is the nearest" 0 $?
+py - "$tmp/hits.json" << 'PY'
+import json, sys
+h = json.load(open(sys.argv[1]))["hits"]
+d = [x["distance"] for x in h]
+assert len(h) == 3 and d == sorted(d) and d[0] < d[1], d
+assert h[0]["export"].endswith("--seed 5 -o m.json") and len(h[0]["params"]) == 50
+PY
+check "hits ordered, with export commands and parameters" 0 $?
+
+"$imsynth" fit-predictor --dataset "$tmp/ds.sqlite" --components 4 --hidden 8 --batch 4 \
+    --val-fraction 0.2 --epochs 1 --quiet -o "$tmp/model"
+check "a small model" 0 $?
+"$imsynth" search "$tmp/r5.exr" --model "$tmp/model" -k 4 --preset draft -o "$tmp/s2.png" \
+    --json "$tmp/h2.json" --quiet > "$tmp/out"
+check "search a catalogue" 0 $?
+[ -s "$tmp/s2.png" ] && [ ! -s "$tmp/out" ]; check "catalogue sheet written, --quiet prints nothing" 0 $?
+py -c "import json,sys; d=[x['distance'] for x in json.load(open(sys.argv[1]))['hits']]; assert len(d)==4 and d==sorted(d), d" "$tmp/h2.json"
+check "catalogue hits ordered" 0 $?
+
+"$imsynth" datagen --out "$tmp/nodesc.sqlite" --count 2 --preset draft --descriptor none --quiet
+"$imsynth" search "$tmp/r5.exr" --dataset "$tmp/nodesc.sqlite" -o "$tmp/x.png" 2> "$tmp/err"
+check "a dataset without descriptors" 1 $?
+expect_stderr "says why" "nodesc.sqlite: stores no whole"
+[ ! -e "$tmp/x.png" ]; check "no sheet left" 0 $?
+"$imsynth" search "$tmp/r5.exr" --dataset "$tmp/ds.sqlite" --model "$tmp/model" -o "$tmp/x.png" 2> "$tmp/err"
+check "two sources is a usage error" 2 $?
+finish
