@@ -2,7 +2,8 @@
 """Refinement speed against a Blender-in-the-loop search, both sides in one run (issue 16):
 
     python3 tests/bench/bench_refine_speed.py --model MODEL_DIR [--frame 0] [--candidates 10]
-        [--blender 4.3] [--imsynth build/cli/imsynth] [--no-pause]
+        [--matched 4] [--blender 4.3] [--imsynth build/cli/imsynth] [--no-pause] [--keep]
+    python3 tests/bench/bench_refine_speed.py --report WORK/results.json
 
 A Blender-in-the-loop search (VLMaterial's way) keeps one Blender running and, for each
 candidate parameter set, changes the material and renders it with Cycles. Here, on super-
@@ -11,12 +12,15 @@ shader frame F:
     (blender/render_server.py) builds the FULL super-shader once in our scene; then each of
     N candidates, frame F's parameters with 1-3 of them moved as one step of our coordinate
     search moves them, sets the group's Value nodes and renders Cycles 256x256, 2 threads,
-    at 4 samples a pixel, then again at 1 sample. The start-up and the first (compile) render
-    are timed apart, not in the per-candidate figure. No descriptor or loss is computed on
-    this side: the ratio is in Blender's favour by that much.
+    at 4 samples a pixel (our datagen preset's camera rays), again at 1 (our draft's), and
+    the first --matched candidates at 16 (our datagen preset's light samples, 4 x 4). The
+    start-up and the first (compile) render are timed apart, not in the per-candidate
+    figure. No descriptor or loss is computed on this side: the ratio is in Blender's
+    favour by that much.
   - imsynth render, one process per candidate, on the same N candidates at the datagen
-    preset (4 shading points a pixel, 4 light samples each, no adaptive sampling): the
-    render itself, from --stats, and the process's wall time (load, bind, extract, compile).
+    preset (4 shading points a pixel, 4 light samples each, no adaptive sampling) and the
+    draft preset (1 shading point): the render itself, from --stats, and the process's wall
+    time (start, load, bind, extract, compile).
   - imsynth predict on frame F's render (imsynth render, default quality, made before the
     measured part): everything default (search preset datagen, 64 refinement evaluations,
     final preset converged), then with --search-preset draft. Evaluations/s =
