@@ -27,7 +27,8 @@ shader frame F:
     refinement.evaluations / seconds.refine; cached evaluations (a move that leaves the
     sub-shader unchanged) count, report["renders"] says how many renders were made.
 The measured part runs with the background datagen (pgrep -f "datagen --out
-/work/data/ds20k") stopped, for at most 9.5 minutes (a watchdog continues it); load
+/work/data/ds20k") stopped, for at most --pause-limit seconds (9.5 minutes; a watchdog
+continues it, and the report says so); load
 averages are printed before and after. Prints a markdown table.
 """
 import argparse
@@ -234,6 +235,8 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--imsynth", default=os.path.join(REPO, "build", "cli", "imsynth"))
     ap.add_argument("--no-pause", action="store_true", help="leave the background datagen running")
+    ap.add_argument("--pause-limit", type=float, default=570,
+                    help="seconds after which the watchdog continues the background datagen")
     ap.add_argument("--keep", action="store_true", help="keep the work folder (printed)")
     ap.add_argument("--report", metavar="RESULTS.json", help="print a kept run's results again")
     a = ap.parse_args()
@@ -269,7 +272,7 @@ def main():
                             text=True).stdout
     res["other_processes"] = [l for l in others.splitlines() if str(os.getpid()) not in l]
     t_measure = time.time()
-    with (paused(BACKGROUND, 570) if not a.no_pause else _nopause()) as pause:
+    with (paused(BACKGROUND, a.pause_limit) if not a.no_pause else _nopause()) as pause:
         # Blender in the loop.
         srv = BlenderServer(a.blender, full, a.threads)
         try:
