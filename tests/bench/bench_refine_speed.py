@@ -226,7 +226,7 @@ def report(R):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--model", required=True)
+    ap.add_argument("--model", help="a model from imsynth fit-predictor (required to measure)")
     ap.add_argument("--frame", type=int, default=0)
     ap.add_argument("--candidates", type=int, default=10)
     ap.add_argument("--matched", type=int, default=4,
@@ -244,6 +244,8 @@ def main():
         with open(a.report) as f:
             report(json.load(f))
         return
+    if not a.model:
+        ap.error("--model is required")
     imsynth = os.path.abspath(a.imsynth)
     graph = os.path.join(REPO, "assets", "supershader.json")
     work = tempfile.mkdtemp(prefix="bench_refine_speed.")
