@@ -30,30 +30,41 @@ CHROOT = "/srv/trixie"
 SEEDS = {"a": 1, "b": 2}
 
 
+def blender_workdir(version, scripts=SCRIPTS):
+    """A fresh temporary folder Blender VERSION can read and write, with our Blender
+    SCRIPTS copied in: for 4.x it is under the chroot's /tmp. Returns (work, inside, cmd):
+    the folder as we see it, a function giving a path as Blender sees it, and the command
+    that starts Blender ("chroot /srv/trixie blender" or "blender"). The caller removes
+    the folder."""
+    chroot = version != "3.4"
+    work = tempfile.mkdtemp(dir=os.path.join(CHROOT, "tmp") if chroot else None)
+    for s in scripts:
+        shutil.copy(os.path.join(REPO, "blender", s), work)
+    inside = (lambda p: p[len(CHROOT):]) if chroot else (lambda p: p)
+    return work, inside, (["chroot", CHROOT] if chroot else []) + ["blender"]
+
+
 def render_cycles(graph, version, samples, seed, out_exr, out_timing, threads=0, nice=10):
     """Renders GRAPH (our JSON) in Blender VERSION ("3.4" on PATH, else the trixie chroot's
     4.x) with Cycles: SAMPLES samples, Cycles seed SEED, to OUT_EXR (half float) and
     OUT_TIMING (JSON: Blender version, samples, seed, seconds of the render inside
     Blender). Both are written whole or not at all. Returns None, or what went wrong."""
-    chroot = version != "3.4"
-    work = tempfile.mkdtemp(dir=os.path.join(CHROOT, "tmp") if chroot else None)
+    work, inside, blender = blender_workdir(version)
     try:
-        for s in SCRIPTS:
-            shutil.copy(os.path.join(REPO, "blender", s), work)
         shutil.copy(graph, os.path.join(work, "graph.json"))
         # A case with its own scene file (e.g. the flash scene) is rendered in that scene.
         scene_file = os.path.join(os.path.dirname(graph), "scene.json")
         if os.path.exists(scene_file):
             shutil.copy(scene_file, os.path.join(work, "scene.json"))
-        inside = (lambda p: p[len(CHROOT):]) if chroot else (lambda p: p)
-        cmd = ["blender", "-b", "--factory-startup", "-noaudio", "-P",
-               inside(os.path.join(work, "render_reference.py")), "--",
-               inside(os.path.join(work, "graph.json")), "--samples", str(samples),
-               "--seed", str(seed), "-o", inside(os.path.join(work, "out.exr")),
-               "--timing", inside(os.path.join(work, "out.json")), "--threads", str(threads)]
+        cmd = blender + ["-b", "--factory-startup", "-noaudio", "-P",
+                         inside(os.path.join(work, "render_reference.py")), "--",
+                         inside(os.path.join(work, "graph.json")), "--samples", str(samples),
+                         "--seed", str(seed), "-o", inside(os.path.join(work, "out.exr")),
+                         "--timing", inside(os.path.join(work, "out.json")),
+                         "--threads", str(threads)]
         if os.path.exists(scene_file):
             cmd += ["--scene-file", inside(os.path.join(work, "scene.json"))]
-        cmd = (["nice", "-n", str(nice)] if nice else []) + (["chroot", CHROOT] if chroot else []) + cmd
+        cmd = (["nice", "-n", str(nice)] if nice else []) + cmd
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0 or not os.path.exists(os.path.join(work, "out.exr")):
             return "Blender failed:\n%s\n%s" % (r.stdout[-2000:], r.stderr[-2000:])

@@ -26,6 +26,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(REPO, "blender"))
 import render_references  # noqa: E402
+from bench_common import loadavg as load  # noqa: E402
 
 args = sys.argv[1:]
 def opt(name, default):
@@ -33,9 +34,6 @@ def opt(name, default):
 frames = int(opt("--frames", "2"))
 count = int(opt("--count", "200"))
 imsynth = os.path.abspath(opt("--imsynth", os.path.join(REPO, "build", "cli", "imsynth")))
-
-def load():
-    return open("/proc/loadavg").read().split()[:3]
 
 print("load average before:", " ".join(load()), flush=True)
 work = tempfile.mkdtemp()
