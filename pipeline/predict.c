@@ -629,6 +629,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     (void)n_scenes_tried;
     t_candidates = pipeline_now() - t_stage;
     t_stage = pipeline_now();
+    int renders_candidates = sc.renders;
+    double render_candidates_s = sc.render_s, describe_candidates_s = sc.describe_s;
 
     /* Refine the winner in its scene. */
     memcpy(best, cand_params + (size_t)best_k * np, (size_t)np * sizeof(float));
@@ -647,6 +649,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         goto done;
     t_refine = pipeline_now() - t_stage;
     t_stage = pipeline_now();
+    int renders_refine = sc.renders - renders_candidates;
+    double render_refine_s = sc.render_s - render_candidates_s,
+           describe_refine_s = sc.describe_s - describe_candidates_s;
 
     /* The final render, its distances, the sub-shader. */
     progress(o, "final render", 0, 1, rr.best_loss);
@@ -766,8 +771,17 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(tj, "refine", t_refine);
     cJSON_AddNumberToObject(tj, "final", t_final);
     cJSON_AddNumberToObject(tj, "render", sc.render_s);
+    cJSON_AddNumberToObject(tj, "describe_renders", sc.describe_s);
+    cJSON_AddNumberToObject(tj, "candidates_render", render_candidates_s);
+    cJSON_AddNumberToObject(tj, "candidates_describe", describe_candidates_s);
+    cJSON_AddNumberToObject(tj, "refine_render", render_refine_s);
+    cJSON_AddNumberToObject(tj, "refine_describe", describe_refine_s);
     cJSON_AddNumberToObject(tj, "total", pipeline_now() - t_start);
     cJSON_AddNumberToObject(report, "renders", sc.renders);
+    cJSON *rs = cJSON_AddObjectToObject(report, "renders_by_stage");
+    cJSON_AddNumberToObject(rs, "candidates", renders_candidates);
+    cJSON_AddNumberToObject(rs, "refine", renders_refine);
+    cJSON_AddNumberToObject(rs, "final", sc.renders - renders_candidates - renders_refine);
     snprintf(path, sizeof path, "%s/report.json", tmp_dir);
     if (write_json(path, report, err, errlen))
         goto done;
