@@ -9,7 +9,8 @@
 #   see the build tree, so imsynth predicts OUTDIR here (--blender 4) and the add-on's
 #   import_result, the operator's last step, imports it inside the chroot.
 # Both check the material's node count against import_material, the comparison image and
-# a tiny Cycles render. Also: make_addon_zip.py is deterministic and packs the 3 files.
+# a tiny Cycles render. With xvfb-run, tests/blender/test_addon_ui.py also runs the
+# operator in 3.4 with a window, as a user does. Also: make_addon_zip.py is deterministic and packs the 3 files.
 # Without any Blender: "skip" and exit 0 (CI machines may have none).
 # Usage: addon.sh IMSYNTH REPO_ROOT
 imsynth=$1
@@ -66,6 +67,23 @@ if [ $have34 = 1 ]; then
         -P "$root/tests/blender/test_addon.py" -- --zip "$tmp/imsynth_addon.zip" \
         --image "$image" --work "$tmp/w34" --imsynth "$imsynth" --model "$tmp/model" \
         --extra "$fast"
+    # The interactive path (the operator goes modal, polls imsynth from a timer, opens a
+    # window for compare.png) needs a display: a virtual one, when xvfb-run is there.
+    # TMPDIR keeps Blender's session files (quit.blend) in the scratch folder.
+    if command -v xvfb-run > /dev/null 2>&1; then
+        mkdir "$tmp/wui" "$tmp/tmpui"
+        TMPDIR="$tmp/tmpui" BLENDER_USER_SCRIPTS="$tmp/scriptsui" timeout 180 \
+            xvfb-run -a -s "-screen 0 1280x800x24" blender --factory-startup \
+            -P "$root/tests/blender/test_addon_ui.py" -- --zip "$tmp/imsynth_addon.zip" \
+            --image "$image" --work "$tmp/wui" --imsynth "$imsynth" --model "$tmp/model" \
+            --extra "$fast" > "$tmp/ui.log" 2>&1
+        grep -q "^test_addon_ui: all ok" "$tmp/ui.log"
+        rc=$?
+        check "blender on PATH, with a window: modal run, compare.png in a new window" 0 $rc
+        [ $rc = 0 ] || tail -40 "$tmp/ui.log"
+    else
+        echo "skip: no xvfb-run: the interactive path (modal run, image window) is untested"
+    fi
 else
     echo "skip: no blender on PATH"
 fi
