@@ -33,7 +33,7 @@ import subprocess
 import tempfile
 
 import bpy
-from bpy.props import EnumProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from . import import_material
 
@@ -98,6 +98,8 @@ def predict_command(exe, image, outdir, prefs, light):
     arguments, so a user's --light or --model there wins (imsynth takes the last)."""
     cmd = [exe, "predict", image, "-o", outdir, "--light", light]
     if prefs.model_dir:
+        # Blender's folder picker ends paths with a separator; imsynth's messages name the
+        # folder as given, and read better without it.
         cmd += ["--model", bpy.path.abspath(prefs.model_dir).rstrip("/\\") or "/"]
     extra = shlex.split(prefs.extra_args)
     # The material is predicted under the semantics of the Blender that will render it
@@ -205,8 +207,8 @@ class IMSYNTH_OT_material_from_image(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     filepath: StringProperty(name="Image", subtype="FILE_PATH")
-    filter_image: bpy.props.BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
-    filter_folder: bpy.props.BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
+    filter_image: BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
+    filter_folder: BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
     light: EnumProperty(name="Light", items=LIGHTS, default="scene",
                         description="How the photo was lit (imsynth predict --light)")
     output_dir: StringProperty(
