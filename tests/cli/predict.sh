@@ -53,6 +53,19 @@ for f in material.json params.json preview.png compare.png; do
     cmp -s "$tmp/out1/$f" "$tmp/out2/$f" || { echo "FAIL: $f differs between 1 and 2 threads"; failures=$((failures + 1)); }
 done
 
+# --light auto: every candidate scored in both scenes; the winner is the least loss of all
+"$imsynth" predict "$input" -o "$tmp/auto" $fast --refine 2 --light auto
+check "predict --light auto" 0 $?
+py - "$tmp/auto/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["light_asked"] == "auto" and r["light"] in ("scene", "flash"), r["light"]
+losses = [(c[s]["loss"], s) for c in r["candidates"] for s in ("scene", "flash")]
+chosen = [c for c in r["candidates"] if c["chosen"]][0]
+assert min(losses)[0] == chosen[r["light"]]["loss"] == r["refinement"]["start_loss"], losses
+PY
+check "auto: both scenes scored, the least loss wins" 0 $?
+
 # a rerun into an earlier output replaces it; a folder of other files is refused and kept
 "$imsynth" predict "$input" -o "$tmp/out2" $fast --refine 1
 check "rerun into an earlier output" 0 $?
