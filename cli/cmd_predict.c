@@ -43,7 +43,7 @@ static const char *const help =
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
     "  --refine N             refinement renders, the start's included (default 64)\n"
-    "  --method M             coordinate (default), es, random (docs/predict.md)\n"
+    "  --method M             es (default), coordinate, random (docs/predict.md)\n"
     "  --search-preset NAME   draft, datagen (default), converged\n"
     "  --final-preset NAME    the preview's (default converged)\n"
     "  --colour-weight W      weight of the colour term (default 4)\n"

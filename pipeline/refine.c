@@ -44,7 +44,7 @@ int refine_method_parse(const char *name)
 void refine_options_default(refine_options *o)
 {
     memset(o, 0, sizeof *o);
-    o->method = REFINE_COORDINATE;
+    o->method = REFINE_ES;
     o->budget = 48;
     o->step = 0.25;
     o->min_step = 1.0 / 128;
