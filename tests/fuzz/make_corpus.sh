@@ -257,4 +257,35 @@ join model.json transform.safetensors network.safetensors > "$c/model/hostile-no
 join model.json catalogue.safetensors network.safetensors transform.safetensors \
     > "$c/model/hostile-swapped.model"
 
+# ---- dictionaries (libFuzzer -dict, used by run.sh): the words of the JSON formats, so
+# mutations can write a node type or a key rather than guess it byte by byte.
+python3 - "$root" <<'PY'
+import json, re, sys, glob
+root = sys.argv[1]
+def words(paths):
+    out = set()
+    def walk(o):
+        if isinstance(o, dict):
+            for k, v in o.items():
+                out.add(k); walk(v)
+        elif isinstance(o, list):
+            for v in o: walk(v)
+        elif isinstance(o, str) and len(o) < 40:
+            out.add(o)
+    for p in paths:
+        walk(json.load(open(p)))
+    return out
+def write(name, ws):
+    with open(f"{root}/tests/fuzz/{name}.dict", "w") as f:
+        f.write(f"# libFuzzer dictionary for fuzz_{name}: written by make_corpus.sh\n")
+        for w in sorted(ws):
+            f.write(json.dumps(json.dumps(w)) + "\n")
+g = words([f"{root}/assets/supershader.json", f"{root}/assets/examples/marble.json"]
+          + glob.glob(f"{root}/tests/reference/blender_made/*.json"))
+for src in glob.glob(f"{root}/shadergraph/*.c") + glob.glob(f"{root}/shadergraph/kernels/*.c"):
+    g |= set(re.findall(r'"(ShaderNode[A-Za-z]+)"', open(src).read()))
+write("graph", g)
+write("scene", words([f"{root}/assets/scene.json", f"{root}/assets/scene-flash.json"]))
+PY
+
 du -sh "$c"

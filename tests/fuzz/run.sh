@@ -40,10 +40,12 @@ for h in $harnesses; do
     cp "$root/tests/fuzz/corpus/$h"/* "$tmp/$h/" 2> /dev/null || true
     log=$art/$h/last-run.log
     rc=0
+    dict=""
+    [ -f "$root/tests/fuzz/$h.dict" ] && dict="-dict=$root/tests/fuzz/$h.dict"
     # -timeout: an input taking 10 s is a hang; -rss_limit_mb also bounds single mallocs.
     # -close_fd_mask=3: libraries under the parsers (libpng through OpenImageIO) print
     # their own complaints; libFuzzer and the sanitizers still report on a saved stderr.
-    "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 -close_fd_mask=3 \
+    "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 -close_fd_mask=3 $dict \
         -artifact_prefix="$art/$h/" "$tmp/$h" > "$log" 2>&1 || rc=$?
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)
