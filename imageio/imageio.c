@@ -254,6 +254,91 @@ static int check_png_complete(const char *path, char *err, size_t errlen)
     return status;
 }
 
+/* OpenEXR 3.1 (Debian bookworm's) sizes a string attribute by the length its header
+ * declares and fills it before reading: a 773-byte file declaring a 2 GB "Note" made the
+ * reader allocate and touch 2 GB (found by tests/fuzz/fuzz_image). So before OpenImageIO
+ * sees an EXR (the magic, whatever the extension: OIIO probes by content too), walk its
+ * header attributes, name\0 type\0 int32 size value, in every part of a multi-part file,
+ * and refuse a size beyond the bytes the file has left. */
+static int check_exr_header(const char *path, char *err, size_t errlen)
+{
+    static const unsigned char magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    FILE *fp = fopen(path, "rb");
+    if (!fp) {
+        set_error(err, errlen, "%s: %s", path, strerror(errno));
+        return -1;
+    }
+    unsigned char head[8];
+    int status = 0;
+    if (fread(head, 1, 8, fp) != 8 || memcmp(head, magic, 4) != 0) {
+        fclose(fp);
+        return 0; /* not an EXR: nothing to check */
+    }
+    long size = fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
+    int multipart = (head[5] & 0x10) != 0; /* version field bit 12 */
+    long at = 8;
+    if (size < 0 || fseek(fp, at, SEEK_SET) != 0)
+        status = -1;
+    while (status == 0) {
+        /* One attribute, or the NUL that ends a header (two in a row end a multi-part
+         * file's header list). */
+        int c = fgetc(fp);
+        if (c == EOF) {
+            status = -1;
+            break;
+        }
+        if (c == 0) {
+            at++;
+            if (!multipart)
+                break;
+            c = fgetc(fp);
+            if (c == 0 || c == EOF) /* end of the list; EOF: let OpenEXR report it */
+                break;
+            ungetc(c, fp);
+            continue;
+        }
+        ungetc(c, fp);
+        char name[256];
+        int ok = 1;
+        for (int field = 0; field < 2 && ok; field++) { /* name, then type name */
+            size_t n = 0;
+            while ((c = fgetc(fp)) > 0 && n < sizeof name - 1)
+                if (field == 0)
+                    name[n++] = (char)c;
+                else
+                    n++;
+            if (field == 0)
+                name[n] = '\0';
+            ok = c == 0;
+            at += (long)n + 1;
+        }
+        unsigned char b[4];
+        if (!ok || fread(b, 1, 4, fp) != 4) {
+            status = -1;
+            break;
+        }
+        at += 4;
+        uint32_t length = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
+                          (uint32_t)b[3] << 24;
+        if (length > 0x7fffffffu || (long)length > size - at) {
+            set_error(err, errlen, "%s: corrupt EXR: header attribute '%.64s' claims %lu "
+                      "bytes, %ld are left in the file", path, name, (unsigned long)length,
+                      size - at);
+            fclose(fp);
+            return -1;
+        }
+        at += (long)length;
+        if (fseek(fp, at, SEEK_SET) != 0)
+            status = -1;
+    }
+    fclose(fp);
+    if (status != 0)
+        set_error(err, errlen, "%s: corrupt EXR: the file (%ld bytes) ends inside its header, or "
+                  "an attribute name is longer than 255 bytes",
+                  path, size);
+    return status;
+}
+
 /* Copy the raw pixels (file_channels as read, interleaved) into img, which has out_channels.
  * Colour is sRGB-decoded when decode is set; alpha never is. A 2-channel file is grey and
  * alpha, spread to RGBA. */
@@ -328,7 +413,8 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         return -1;
     }
     if (check_readable_file(path, err, errlen) != 0 ||
-        check_png_complete(path, err, errlen) != 0)
+        check_png_complete(path, err, errlen) != 0 ||
+        check_exr_header(path, err, errlen) != 0)
         return -1;
 
     char msg[512];
