@@ -3,7 +3,6 @@
  * (assets/supershader.json), so inputs that name real parameters reach the value checks.
  * The contract checked: on error the values are left unchanged; on success every value
  * is finite and in [0, 1]. */
-#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
