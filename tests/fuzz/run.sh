@@ -36,7 +36,9 @@ for h in $harnesses; do
         echo "run.sh: $bin missing: configure with -DIMSYNTH_FUZZ=ON and build" >&2
         exit 2
     fi
-    mkdir -p "$tmp/$h" "$art/$h"
+    # The harnesses' input files go under TMPDIR; a crashing process cannot remove its
+    # own, so each run gets one inside this script's temporary directory.
+    mkdir -p "$tmp/$h" "$tmp/tmpdir-$h" "$art/$h"
     cp "$root/tests/fuzz/corpus/$h"/* "$tmp/$h/" 2> /dev/null || true
     log=$art/$h/last-run.log
     rc=0
@@ -45,7 +47,7 @@ for h in $harnesses; do
     # -timeout: an input taking 10 s is a hang; -rss_limit_mb also bounds single mallocs.
     # -close_fd_mask=3: libraries under the parsers (libpng through OpenImageIO) print
     # their own complaints; libFuzzer and the sanitizers still report on a saved stderr.
-    "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 -close_fd_mask=3 $dict \
+    TMPDIR="$tmp/tmpdir-$h" "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 -close_fd_mask=3 $dict \
         -artifact_prefix="$art/$h/" "$tmp/$h" > "$log" 2>&1 || rc=$?
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)
