@@ -162,7 +162,14 @@ static int check_writable_image(const char *path, const image *img, char *err, s
 /* The limits protect against a corrupt or hostile header asking for gigabytes: 32768 on a
  * side, and 2^28 pixels (a 16384 x 16384 image, 4 GiB as RGBA floats) in all. */
 #define IMAGE_MAX_SIDE 32768
+#ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
 #define IMAGE_MAX_PIXELS ((size_t)1 << 28)
+#else
+/* Fuzz builds (tests/fuzz, IMSYNTH_FUZZ): a 60-byte file may claim 2^28 pixels, and under
+ * AddressSanitizer the refused-later allocation costs 0.5 GiB of shadow memory, so one
+ * such input fills the fuzzer's 2 GiB budget. The check is the same with a smaller bound. */
+#define IMAGE_MAX_PIXELS ((size_t)1 << 22)
+#endif
 
 /* Reject what we cannot or will not read before touching the file with OIIO: a FIFO would
  * block forever, and missing files and folders get a plainer message than OIIO's. */
@@ -247,6 +254,169 @@ static int check_png_complete(const char *path, char *err, size_t errlen)
     return status;
 }
 
+/* The value size OpenEXR's C++ reader consumes for an attribute type whose values all have
+ * one size (it reads that many bytes, whatever size the header declares), or -1. */
+static long exr_fixed_size(const char *type)
+{
+    static const struct {
+        const char *type;
+        long size;
+    } sizes[] = {
+        {"box2i", 16},   {"box2f", 16},   {"chromaticities", 32}, {"compression", 1},
+        {"deepImageState", 1}, {"double", 8}, {"envmap", 1},     {"float", 4},
+        {"int", 4},      {"keycode", 28}, {"lineOrder", 1},      {"m33f", 36},
+        {"m33d", 72},    {"m44f", 64},    {"m44d", 128},         {"rational", 8},
+        {"tiledesc", 9}, {"timecode", 8}, {"v2i", 8},            {"v2f", 8},
+        {"v2d", 16},     {"v3i", 12},     {"v3f", 12},           {"v3d", 24},
+    };
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
+        if (strcmp(type, sizes[i].type) == 0)
+            return sizes[i].size;
+    return -1;
+}
+
+static uint32_t little_endian32(const unsigned char *b)
+{
+    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+}
+
+/* Whether the value v (n bytes) of a chlist, preview or stringvector attribute is exactly
+ * what its own contents say, which is what OpenEXR reads: a channel list up to its empty
+ * name (each channel: name, NUL, 16 bytes), a preview's 8 + 4 * width * height bytes, a
+ * string vector's (int32 length, bytes) entries. */
+static int exr_value_consistent(const char *type, const unsigned char *v, size_t n)
+{
+    size_t at = 0;
+    if (strcmp(type, "chlist") == 0) {
+        for (;;) {
+            size_t len = 0;
+            while (at + len < n && v[at + len] != 0)
+                len++;
+            if (at + len >= n || len > 255)
+                return 0;
+            if (len == 0)
+                return at + 1 == n; /* the empty name ends the list */
+            at += len + 1 + 16;
+            if (at > n)
+                return 0;
+        }
+    }
+    if (strcmp(type, "preview") == 0)
+        return n >= 8 &&
+               (uint64_t)little_endian32(v) * little_endian32(v + 4) * 4 == (uint64_t)(n - 8);
+    if (strcmp(type, "stringvector") == 0) {
+        while (at < n) {
+            if (n - at < 4 || little_endian32(v + at) > n - at - 4)
+                return 0;
+            at += 4 + little_endian32(v + at);
+        }
+        return 1;
+    }
+    return 1;
+}
+
+/* Bookworm's OpenEXR 3.1 sizes strings by the lengths a header declares and fills them
+ * before reading: a 773-byte EXR declaring a 2 GB string made the reader allocate and
+ * touch 2 GB (found by tests/fuzz/fuzz_image). So before OpenImageIO sees an EXR (the
+ * magic, whatever the extension: OIIO probes by content too), walk its header
+ * attributes, name\0 type\0 int32 size value, in every part of a multi-part file, as
+ * OpenEXR will, and refuse one whose size is beyond the file's end or disagrees with its
+ * value: fixed-size types must declare their size, and a channel list, preview or string
+ * vector must fill its declared size exactly. Otherwise OpenEXR, which reads those by
+ * their contents, would read the next attribute from elsewhere than this walk did. */
+static int check_exr_header(const char *path, char *err, size_t errlen)
+{
+    static const unsigned char magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    FILE *fp = fopen(path, "rb");
+    if (!fp) {
+        set_error(err, errlen, "%s: %s", path, strerror(errno));
+        return -1;
+    }
+    unsigned char head[8];
+    if (fread(head, 1, 8, fp) != 8 || memcmp(head, magic, 4) != 0) {
+        fclose(fp);
+        return 0; /* not an EXR: nothing to check */
+    }
+    long size = fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
+    int multipart = (head[5] & 0x10) != 0; /* version field bit 12 */
+    long at = 8;
+    int status = size < 0 || fseek(fp, at, SEEK_SET) != 0 ? -1 : 0;
+    unsigned char *value = NULL;
+    while (status == 0) {
+        /* One attribute, or the NUL that ends a header (two in a row end a multi-part
+         * file's header list). */
+        int c = fgetc(fp);
+        if (c == EOF) {
+            status = -1;
+            break;
+        }
+        if (c == 0) {
+            at++;
+            if (!multipart)
+                break;
+            c = fgetc(fp);
+            if (c == 0 || c == EOF) /* end of the list; EOF: let OpenEXR report it */
+                break;
+            ungetc(c, fp);
+            continue;
+        }
+        ungetc(c, fp);
+        char field[2][256]; /* name, type name */
+        int ok = 1;
+        for (int f = 0; f < 2 && ok; f++) {
+            size_t n = 0;
+            while ((c = fgetc(fp)) > 0 && n < sizeof field[f] - 1)
+                field[f][n++] = (char)c;
+            field[f][n] = '\0';
+            ok = c == 0;
+            at += (long)n + 1;
+        }
+        unsigned char b[4];
+        if (!ok || fread(b, 1, 4, fp) != 4) {
+            status = -1;
+            break;
+        }
+        at += 4;
+        uint32_t length = little_endian32(b);
+        long fixed = exr_fixed_size(field[1]);
+        if (length > 0x7fffffffu || (long)length > size - at) {
+            set_error(err, errlen, "%s: corrupt EXR: header attribute '%.64s' claims %lu "
+                      "bytes, %ld are left in the file", path, field[0], (unsigned long)length,
+                      size - at);
+            status = -2;
+            break;
+        }
+        int consistent = fixed < 0 || (long)length == fixed;
+        if (consistent && fixed < 0 && (!strcmp(field[1], "chlist") ||
+                                        !strcmp(field[1], "preview") ||
+                                        !strcmp(field[1], "stringvector"))) {
+            free(value);
+            value = malloc(length ? length : 1);
+            if (!value || fread(value, 1, length, fp) != length) {
+                status = -1;
+                break;
+            }
+            consistent = exr_value_consistent(field[1], value, length);
+        }
+        if (!consistent) {
+            set_error(err, errlen, "%s: corrupt EXR: header attribute '%.64s' of type "
+                      "'%.32s' declares %lu bytes, which its value does not fill", path,
+                      field[0], field[1], (unsigned long)length);
+            status = -2;
+            break;
+        }
+        at += (long)length;
+        if (fseek(fp, at, SEEK_SET) != 0)
+            status = -1;
+    }
+    free(value);
+    fclose(fp);
+    if (status == -1)
+        set_error(err, errlen, "%s: corrupt EXR: the file (%ld bytes) ends inside its header, or "
+                  "an attribute name is longer than 255 bytes", path, size);
+    return status == 0 ? 0 : -1;
+}
+
 /* Copy the raw pixels (file_channels as read, interleaved) into img, which has out_channels.
  * Colour is sRGB-decoded when decode is set; alpha never is. A 2-channel file is grey and
  * alpha, spread to RGBA. */
@@ -321,7 +491,8 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         return -1;
     }
     if (check_readable_file(path, err, errlen) != 0 ||
-        check_png_complete(path, err, errlen) != 0)
+        check_png_complete(path, err, errlen) != 0 ||
+        check_exr_header(path, err, errlen) != 0)
         return -1;
 
     char msg[512];

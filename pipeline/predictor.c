@@ -428,8 +428,16 @@ predictor *predictor_load(const char *dir, char *err, size_t errlen)
                                     errlen) ||
                         predictor_read_tensor(&st, "catalogue.id_low24", lo, nc, err, errlen) ||
                         predictor_read_tensor(&st, "catalogue.id_high", hi, nc, err, errlen);
-    for (size_t i = 0; !bad && i < nc; i++)
-        p->cat_id[i] = (long long)hi[i] * (1ll << 24) + (long long)lo[i];
+    for (size_t i = 0; !bad && i < nc; i++) {
+        /* An id is stored as two floats, its low 24 bits and the rest: both must be whole
+         * numbers in range, or converting them to long long is undefined. */
+        if (!(lo[i] >= 0 && lo[i] < 16777216.0f && lo[i] == floorf(lo[i]) && hi[i] >= 0 &&
+              hi[i] < 549755813888.0f && hi[i] == floorf(hi[i])))
+            bad = pipeline_error(err, errlen, "%s: catalogue id %zu is not a whole number in "
+                                 "[0, 2^63)", path, i);
+        else
+            p->cat_id[i] = (long long)hi[i] * (1ll << 24) + (long long)lo[i];
+    }
     free(lo);
     free(hi);
     nn_safetensors_close(&st);

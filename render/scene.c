@@ -215,8 +215,9 @@ static int load_mesh(const loader *ld, const cJSON *o, int index, render_mesh *m
         unsigned idx[3];
         for (int i = 0; i < n; i++) {
             const cJSON *v = cJSON_GetArrayItem(poly, i);
-            if (!cJSON_IsNumber(v) || v->valuedouble != (double)(int)v->valuedouble ||
-                v->valuedouble < 0 || v->valuedouble >= nv)
+            /* The range first: converting a double outside int's range is undefined. */
+            if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0 && v->valuedouble < nv) ||
+                v->valuedouble != floor(v->valuedouble))
                 return fail(ld, "%s.faces[%d][%d]: expected a vertex index in [0, %d)", where,
                             f, i, nv);
             unsigned vi = (unsigned)v->valueint;

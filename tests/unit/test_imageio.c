@@ -798,6 +798,51 @@ static void test_truncated_files(void **state)
     expect_read_error(path);
 }
 
+/* An EXR header attribute claiming more bytes than the file has (found by fuzz_image: the
+ * system OpenEXR allocated and filled the claimed 2 GB string) is refused before OpenEXR
+ * reads it, for a single-part and a multi-part file; a real EXR's header still passes. */
+static void test_exr_lying_attribute(void **state)
+{
+    const fixture *f = *state;
+    char path[256], err[512];
+    /* magic, version 2 (flags in byte 5: 0x10 multi-part), then name\0 type\0 size value */
+    static const unsigned char lie[] = {0x76, 0x2f, 0x31, 0x01, 0x02, 0x00, 0x00, 0x00,
+                                        'N', 'o', 't', 'e', 0, 's', 't', 'r', 'i', 'n', 'g', 0,
+                                        0x00, 0x00, 0x00, 0x70, 'x', 'y', 0};
+    for (int multipart = 0; multipart <= 1; multipart++) {
+        unsigned char bytes[sizeof lie];
+        memcpy(bytes, lie, sizeof lie);
+        bytes[5] = multipart ? 0x10 : 0x00;
+        path_in(f, multipart ? "lie_multipart.exr" : "lie.exr", path, sizeof path);
+        write_bytes(path, bytes, sizeof bytes);
+        image img = {0};
+        assert_int_equal(image_read(path, &img, err, sizeof err), -1);
+        if (!strstr(err, "claims"))
+            fail_msg("expected the attribute's claim in \"%s\"", err);
+    }
+    /* A channel list declaring fewer bytes than its channels take: OpenEXR reads it to its
+     * end anyway, so a walk by declared sizes would go out of step with it. */
+    static const unsigned char chlist[] = {0x76, 0x2f, 0x31, 0x01, 0x02, 0x00, 0x00, 0x00,
+                                           'c', 'h', 'a', 'n', 'n', 'e', 'l', 's', 0,
+                                           'c', 'h', 'l', 'i', 's', 't', 0, 10, 0, 0, 0,
+                                           'R', 0, 1, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0,
+                                           0, 0, 0, 0};
+    path_in(f, "lie_chlist.exr", path, sizeof path);
+    write_bytes(path, chlist, sizeof chlist);
+    image bad = {0};
+    assert_int_equal(image_read(path, &bad, err, sizeof err), -1);
+    if (!strstr(err, "does not fill"))
+        fail_msg("expected the channel list's size in \"%s\"", err);
+    image img;
+    assert_int_equal(image_alloc(&img, 4, 3, 4), 0);
+    path_in(f, "true.exr", path, sizeof path);
+    assert_int_equal(image_write_exr(path, &img, IMAGE_EXR_HALF, err, sizeof err), 0);
+    image_free(&img);
+    if (image_read(path, &img, err, sizeof err) != 0)
+        fail_msg("%s", err);
+    image_free(&img);
+}
+
 static void test_not_images(void **state)
 {
     const fixture *f = *state;
@@ -917,6 +962,7 @@ int main(void)
         cmocka_unit_test(test_resize_gradient_mean),
         cmocka_unit_test(test_resize_filter_shape),
         cmocka_unit_test(test_truncated_files),
+        cmocka_unit_test(test_exr_lying_attribute),
         cmocka_unit_test(test_not_images),
         cmocka_unit_test(test_failed_writes_leave_nothing),
         cmocka_unit_test(test_overwrite),
