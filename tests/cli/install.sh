@@ -22,4 +22,9 @@ expect_stdout "--data overrides" "data: $root/assets/supershader.json"
 check "a wrong IMSYNTH_DATA falls back to the installation" 0 $?
 (cd "$tmp" && "$p/bin/imsynth" datagen --out ds.sqlite --count 1 --preset draft --descriptor none --quiet)
 check "installed datagen from another directory" 0 $?
+(cd / && "$p/bin/imsynth" predict "$root/assets/examples/handmade-wood_planks.png" -o "$tmp/pred" \
+    --refine 1 --top-k 1 --nearest 1 --search-preset draft --final-preset draft --quiet)
+check "installed predict from / with the bundled model" 0 $?
+grep -q "\"model\":.*$p/bin/../share/imsynth/assets/model" "$tmp/pred/report.json"
+check "the installed predict uses the installed model" 0 $?
 finish
