@@ -349,6 +349,27 @@ predictor *predictor_load(const char *dir, char *err, size_t errlen)
         read_model_json(p, path, err, errlen))
         goto fail;
     size_t d = p->d, k = (size_t)p->k, np = (size_t)p->lay.n_params;
+    /* The sizes come from model.json: the transform file must hold a basis of exactly
+     * k x d values before k x d floats are allocated (a hostile model.json claiming 10^7
+     * components is refused here, not by an allocation). */
+    if (predictor_path_join(path, sizeof path, dir, "transform.safetensors", err, errlen))
+        goto fail;
+    if (nn_safetensors_open(path, &st, msg, sizeof msg)) {
+        pipeline_error(err, errlen, "%s", msg);
+        goto fail;
+    }
+    {
+        int ci = nn_safetensors_find(&st, "pca.components");
+        size_t count = ci < 0 ? 0 : 1;
+        for (int a = 0; ci >= 0 && a < st.tensors[ci].ndim; a++)
+            count *= (size_t)st.tensors[ci].shape[a];
+        if (ci < 0 || count != k * d) {
+            pipeline_error(err, errlen, "%s: no tensor \"pca.components\" of %zu x %zu values "
+                                        "(model.json's components x features)",
+                           path, k, d);
+            goto fail;
+        }
+    }
     p->scale = malloc(d * sizeof(float));
     p->mean = malloc(d * sizeof(float));
     p->std = malloc(d * sizeof(float));
@@ -360,12 +381,6 @@ predictor *predictor_load(const char *dir, char *err, size_t errlen)
     if (!p->scale || !p->mean || !p->std || !p->components || !p->variance || !p->mean_params ||
         !p->x || !p->z) {
         pipeline_error(err, errlen, "%s: out of memory for %zu features", dir, d);
-        goto fail;
-    }
-    if (predictor_path_join(path, sizeof path, dir, "transform.safetensors", err, errlen))
-        goto fail;
-    if (nn_safetensors_open(path, &st, msg, sizeof msg)) {
-        pipeline_error(err, errlen, "%s", msg);
         goto fail;
     }
     if (predictor_read_tensor(&st, "signed_log.scale", p->scale, d, err, errlen) ||
