@@ -25,17 +25,6 @@ static const char *const help =
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
     "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n";
 
-/* A parameter set as JSON, each value in the shortest form that reads back as the same
- * float (sg_params_to_json's), so a file written here binds exactly the predicted values. */
-static cJSON *params_object(const char *const *names, const float *v, int n)
-{
-    sg_params p = {.n = n, .names = (char **)names, .values = (float *)v};
-    char *text = sg_params_to_json(&p);
-    cJSON *o = text ? cJSON_Parse(text) : NULL;
-    free(text);
-    return o ? o : cJSON_CreateObject();
-}
-
 static int write_params_atomic(const char *path, const char *const *names, const float *v,
                                int n, char *err, size_t errlen)
 {
@@ -46,26 +35,6 @@ static int write_params_atomic(const char *path, const char *const *names, const
         return -1;
     }
     return 0;
-}
-
-static int write_json_atomic(const char *path, cJSON *j, char *err, size_t errlen)
-{
-    char *text = cJSON_Print(j);
-    if (!text) {
-        snprintf(err, errlen, "out of memory");
-        return -1;
-    }
-    size_t n = strlen(text);
-    char *line = realloc(text, n + 2); /* end the file with a newline, as text files do */
-    if (!line) {
-        free(text);
-        snprintf(err, errlen, "out of memory");
-        return -1;
-    }
-    memcpy(line + n, "\n", 2);
-    int rc = pipeline_write_text_atomic(path, line, err, errlen);
-    free(line);
-    return rc;
 }
 
 int cmd_predict_params(int argc, char **argv)
@@ -160,7 +129,7 @@ int cmd_predict_params(int argc, char **argv)
         for (int h = 0; h < got; h++) {
             cJSON *e = cJSON_CreateObject();
             cJSON_AddNumberToObject(e, "probability", prob[h]);
-            cJSON_AddItemToObject(e, "params", params_object(names, params + (size_t)h * np, np));
+            cJSON_AddItemToObject(e, "params", pipeline_params_json(names, params + (size_t)h * np, np));
             cJSON_AddItemToArray(list, e);
         }
         if (nearest) {
@@ -178,11 +147,11 @@ int cmd_predict_params(int argc, char **argv)
                 cJSON *e = cJSON_CreateObject();
                 cJSON_AddNumberToObject(e, "id", (double)id);
                 cJSON_AddNumberToObject(e, "distance", dist[i]);
-                cJSON_AddItemToObject(e, "params", params_object(names, cp, np));
+                cJSON_AddItemToObject(e, "params", pipeline_params_json(names, cp, np));
                 cJSON_AddItemToArray(nl, e);
             }
         }
-        if (write_json_atomic(hyp_path, hyp, err, sizeof err))
+        if (pipeline_write_json_atomic(hyp_path, hyp, err, sizeof err))
             goto fail;
     }
     rc = EXIT_OK;

@@ -269,6 +269,19 @@ int pipeline_prepare_input(const image *in, int size, image *out, char *err, siz
  * Returns 0, or -1 with a message naming the file. */
 int pipeline_write_text_atomic(const char *path, const char *text, char *err, size_t errlen);
 
+/* The same for a JSON document, pretty-printed, ending with a newline (cJSON's). */
+struct cJSON;
+int pipeline_write_json_atomic(const char *path, const struct cJSON *j, char *err,
+                               size_t errlen);
+/* A parameter set as a JSON object keyed by name, each value in the shortest form that reads
+ * back as the same float (sg_params_to_json's); an empty object when out of memory. */
+struct cJSON *pipeline_params_json(const char *const *names, const float *values, int n);
+
+/* A user's image for predict and search (PNG, JPEG, TIFF, EXR through image_read), refused
+ * when smaller than 32 x 32 or when any value is NaN or infinite, with a message naming the
+ * file. out is allocated. Returns 0 or -1. */
+int pipeline_read_user_image(const char *path, image *out, char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- loss curves ------ */
 
 /* A training run's loss curve as a small SVG line chart: log-scale training loss over n

@@ -209,15 +209,6 @@ typedef struct candidate {
 
 /* ---------------------------------------------------------------- output ----------- */
 
-static cJSON *params_json(const sg_params *names_from, const float *v)
-{
-    sg_params p = {.n = names_from->n, .names = names_from->names, .values = (float *)v};
-    char *text = sg_params_to_json(&p);
-    cJSON *j = text ? cJSON_Parse(text) : NULL;
-    free(text);
-    return j ? j : cJSON_CreateObject();
-}
-
 static cJSON *num(double v) { return isfinite(v) ? cJSON_CreateNumber(v) : cJSON_CreateNull(); }
 
 /* The loss curve as a picture: a tile x tile plot on a dark ground, the best loss after
@@ -292,23 +283,6 @@ static int write_compare(const char *path, const image *input, const image *prev
     int rc = image_write_png(path, &sheet, msg, sizeof msg);
     image_free(&sheet);
     return rc ? pipeline_error(err, errlen, "%s", msg) : 0;
-}
-
-static int write_json(const char *path, cJSON *j, char *err, size_t errlen)
-{
-    char *text = cJSON_Print(j);
-    if (!text)
-        return pipeline_error(err, errlen, "out of memory");
-    size_t n = strlen(text);
-    char *t = realloc(text, n + 2);
-    if (!t) {
-        free(text);
-        return pipeline_error(err, errlen, "out of memory");
-    }
-    memcpy(t + n, "\n", 2);
-    int rc = pipeline_write_text_atomic(path, t, err, errlen);
-    free(t);
-    return rc;
 }
 
 static void remove_tree(const char *dir)
@@ -471,23 +445,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         return -1;
 
     /* The input: read, checked, its centre square at the scene's size. */
-    if (image_read(o->image_path, &raw, err, errlen))
+    if (pipeline_read_user_image(o->image_path, &raw, err, errlen))
         return -1;
-    if (raw.width < 32 || raw.height < 32) {
-        pipeline_error(err, errlen, "%s: %d x %d pixels; an input needs at least 32 x 32",
-                       o->image_path, raw.width, raw.height);
-        goto done;
-    }
-    {
-        size_t n = (size_t)raw.width * (size_t)raw.height * (size_t)raw.channels, bad = 0;
-        for (size_t i = 0; i < n; i++)
-            bad += !isfinite(raw.pixels[i]);
-        if (bad) {
-            pipeline_error(err, errlen, "%s: %zu of %zu pixel values are NaN or infinite",
-                           o->image_path, bad, n);
-            goto done;
-        }
-    }
 
     /* Data files. */
     const char *model_dir = o->model_dir;
@@ -764,7 +723,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddItemToObject(fj, "colour", num(final_c));
     cJSON_AddItemToObject(fj, "loss", num(final_loss));
     cJSON_AddNumberToObject(fj, "material_nodes", sg_graph_node_count(sub));
-    cJSON_AddItemToObject(report, "params", params_json(&sc.params, best));
+    cJSON_AddItemToObject(report, "params", pipeline_params_json((const char *const *)sc.params.names, best, np));
     cJSON *tj = cJSON_AddObjectToObject(report, "seconds");
     cJSON_AddNumberToObject(tj, "describe", t_describe);
     cJSON_AddNumberToObject(tj, "candidates", t_candidates);
@@ -783,7 +742,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(rs, "refine", renders_refine);
     cJSON_AddNumberToObject(rs, "final", sc.renders - renders_candidates - renders_refine);
     snprintf(path, sizeof path, "%s/report.json", tmp_dir);
-    if (write_json(path, report, err, errlen))
+    if (pipeline_write_json_atomic(path, report, err, errlen))
         goto done;
 
     if (o->blend) {

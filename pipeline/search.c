@@ -275,13 +275,8 @@ int search_run(const search_options *o, char *err, size_t errlen)
     dataset *ds = NULL;
     const char *const *names = NULL;
     cJSON *list = NULL;
-    if (image_read(o->image_path, &raw, err, errlen))
+    if (pipeline_read_user_image(o->image_path, &raw, err, errlen))
         return -1;
-    if (raw.width < 32 || raw.height < 32) {
-        pipeline_error(err, errlen, "%s: %d x %d pixels; an input needs at least 32 x 32",
-                       o->image_path, raw.width, raw.height);
-        goto done;
-    }
     if (pipeline_prepare_input(&raw, 256, &input, err, errlen))
         goto done;
     if (o->dataset_path) {
@@ -342,28 +337,11 @@ int search_run(const search_options *o, char *err, size_t errlen)
         snprintf(cmd, sizeof cmd, "imsynth export assets/supershader.json --seed %lld -o m.json",
                  hits[i].id);
         cJSON_AddStringToObject(h, "export", cmd);
-        sg_params p = {.n = n_params, .names = (char **)names, .values = hits[i].params};
-        char *text = sg_params_to_json(&p);
-        cJSON *pj = text ? cJSON_Parse(text) : NULL;
-        free(text);
-        cJSON_AddItemToObject(h, "params", pj ? pj : cJSON_CreateNull());
+        cJSON_AddItemToObject(h, "params", pipeline_params_json(names, hits[i].params, n_params));
         cJSON_AddItemToArray(a, h);
     }
-    if (o->json_path) {
-        char *text = cJSON_Print(list);
-        size_t len = text ? strlen(text) : 0;
-        char *t = text ? realloc(text, len + 2) : NULL;
-        if (!t) {
-            free(text);
-            pipeline_error(err, errlen, "out of memory");
-            goto done;
-        }
-        memcpy(t + len, "\n", 2);
-        int w = pipeline_write_text_atomic(o->json_path, t, err, errlen);
-        free(t);
-        if (w)
-            goto done;
-    }
+    if (o->json_path && pipeline_write_json_atomic(o->json_path, list, err, errlen))
+        goto done;
     for (int i = 0; i < n && o->print; i++)
         printf("%lld\t%d\t%.6f\n", hits[i].id, hits[i].view, hits[i].distance);
     rc = 0;

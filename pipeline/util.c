@@ -7,6 +7,8 @@
 #include <string.h>
 #include <time.h>
 
+#include <cjson/cJSON.h>
+
 #include "pipeline/pipeline_internal.h"
 
 int pipeline_error(char *err, size_t errlen, const char *fmt, ...)
@@ -161,4 +163,47 @@ int pipeline_write_text_atomic(const char *path, const char *text, char *err, si
         return pipeline_error(err, errlen, "%s: write error (disk full?)", path);
     }
     return 0;
+}
+
+int pipeline_write_json_atomic(const char *path, const cJSON *j, char *err, size_t errlen)
+{
+    char *text = cJSON_Print(j);
+    size_t n = text ? strlen(text) : 0;
+    char *t = text ? realloc(text, n + 2) : NULL; /* end the file with a newline */
+    if (!t) {
+        free(text);
+        return pipeline_error(err, errlen, "%s: out of memory", path);
+    }
+    memcpy(t + n, "\n", 2);
+    int rc = pipeline_write_text_atomic(path, t, err, errlen);
+    free(t);
+    return rc;
+}
+
+cJSON *pipeline_params_json(const char *const *names, const float *values, int n)
+{
+    sg_params p = {.n = n, .names = (char **)names, .values = (float *)values};
+    char *text = sg_params_to_json(&p);
+    cJSON *o = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    return o ? o : cJSON_CreateObject();
+}
+
+int pipeline_read_user_image(const char *path, image *out, char *err, size_t errlen)
+{
+    if (image_read(path, out, err, errlen))
+        return -1;
+    size_t n = (size_t)out->width * (size_t)out->height * (size_t)out->channels, bad = 0;
+    for (size_t i = 0; i < n; i++)
+        bad += !isfinite(out->pixels[i]);
+    if (out->width < 32 || out->height < 32)
+        pipeline_error(err, errlen, "%s: %d x %d pixels; an input needs at least 32 x 32", path,
+                       out->width, out->height);
+    else if (bad)
+        pipeline_error(err, errlen, "%s: %zu of %zu pixel values are NaN or infinite", path, bad,
+                       n);
+    else
+        return 0;
+    image_free(out);
+    return -1;
 }
