@@ -561,7 +561,6 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* Score each distinct candidate in each scene tried; the best (candidate, scene) wins. */
     int best_k = -1, best_scene = 0;
     double best_loss = INFINITY;
-    int n_scenes_tried = o->light == PREDICT_LIGHT_AUTO ? 2 : 1;
     for (int j = 0; j < n_keep; j++) {
         candidate *c = &cands[keep[j]];
         c->g[0] = c->g[1] = c->c[0] = c->c[1] = c->loss[0] = c->loss[1] = NAN;
@@ -585,7 +584,6 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
                        o->image_path);
         goto done;
     }
-    (void)n_scenes_tried;
     t_candidates = pipeline_now() - t_stage;
     t_stage = pipeline_now();
     int renders_candidates = sc.renders;

@@ -20,6 +20,8 @@
  * sigma grows on success and shrinks on failure so that about 1 in 5 succeeds.
  * REFINE_RANDOM: uniform draws of the active parameters around nothing: the baseline that
  * says whether the search's moves are worth more than fresh guesses.
+ * The ES is the default: on renders it cut the distances more than coordinate search
+ * (EVALUATION.md, "refinement methods").
  *
  * Invariants: the loss callback is called at most o->budget times; parameters of kind REFINE_FIXED and inactive ones keep
  * their starting values; curve[i] is the best loss after i + 1 evaluations (non-increasing).
