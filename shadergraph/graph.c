@@ -92,8 +92,11 @@ static int read_number(const load_ctx *c, const cJSON *j, const char *where, flo
 {
     if (!cJSON_IsNumber(j))
         return sg_error_set(c->err, "%s: %s: expected a number", c->source, where);
+    /* The bound is FLT_MAX plus half its ulp: every double below it rounds to a finite
+     * float. Comparing with FLT_MAX itself refused the 9-digit text we write for FLT_MAX
+     * (3.40282347e+38 lies above it), so a saved graph would not load again (fuzz_graph). */
     double v = j->valuedouble;
-    if (!isfinite(v) || fabs(v) > FLT_MAX)
+    if (!isfinite(v) || fabs(v) >= (double)FLT_MAX + 0x1p103)
         return sg_error_set(c->err, "%s: %s: value is not a finite float", c->source, where);
     *out = (float)v;
     return 0;

@@ -7,6 +7,7 @@
  * compiles the Principled BSDF's Base Color when there is one and evaluates it at 4
  * points of the scene plane. A broken invariant aborts, which libFuzzer reports. */
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,8 +47,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char *text = sg_graph_to_json(g);
     if (text) {
         sg_graph *again = sg_graph_load_json(text, strlen(text), "fuzz-resaved.json", &err);
-        if (!again)
-            abort(); /* a graph we wrote is one we must read */
+        if (!again) { /* a graph we wrote is one we must read */
+            fprintf(stderr, "resaved graph refused: %s\n", err.msg);
+            abort();
+        }
         char *text2 = sg_graph_to_json(again);
         if (text2 && strcmp(text, text2) != 0)
             abort(); /* the round trip lost or changed something */
