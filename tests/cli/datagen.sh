@@ -7,9 +7,8 @@
 imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
-digest() { "$imsynth" dataset info "$1" --digest | sed -n 's/.*content digest *//p'; }
 same_digest() { # description, dataset, dataset
-    a=$(digest "$2"); b=$(digest "$3")
+    a=$(dataset_digest "$2"); b=$(dataset_digest "$3")
     if [ -n "$a" ] && [ "$a" = "$b" ]; then echo "ok: $1"; else
         echo "FAIL: $1: digests $a and $b"; failures=$((failures + 1)); fi
 }

@@ -10,9 +10,9 @@ root=$2
 . "$root/tests/cli/lib/harness.sh"
 # Under the sanitizers (IMSYNTH_TEST_QUICK) 1 and 8 threads only.
 counts="1 2 8"; [ -n "${IMSYNTH_TEST_QUICK:-}" ] && counts="1 8"
-same3() { # description, file pattern with @ for the thread count
+same_for_counts() { # description, file pattern with @ for the thread count
     a=$(echo "$2" | sed 's/@/1/'); bad=""
-    for t in $counts; do
+    for t in ${counts#1 }; do
         b=$(echo "$2" | sed "s/@/$t/")
         cmp -s "$a" "$b" || bad="$bad $t"
     done
@@ -30,7 +30,7 @@ for t in $counts; do
     "$imsynth" render "$tmp/g.json" --scene "$tmp/scene.json" --spp 2 --max-spp 16 --float \
         --threads $t -o "$tmp/r$t.exr" || { echo "FAIL: render, $t threads"; failures=$((failures + 1)); }
 done
-same3 "render (adaptive sampling)" "$tmp/r@.exr"
+same_for_counts "render (adaptive sampling)" "$tmp/r@.exr"
 
 img="$root/assets/examples/handmade-marble.png"
 for t in $counts; do
@@ -38,22 +38,21 @@ for t in $counts; do
     "$imsynth" describe "$img" --features mobilenetv2 --threads $t -o "$tmp/m$t.npy" > /dev/null ||
         { echo "FAIL: describe, $t threads"; failures=$((failures + 1)); }
 done
-same3 "describe, VGG19" "$tmp/d@.npy"
-same3 "describe, MobileNetV2" "$tmp/m@.npy"
+same_for_counts "describe, VGG19" "$tmp/d@.npy"
+same_for_counts "describe, MobileNetV2" "$tmp/m@.npy"
 
-digest() { "$imsynth" dataset info "$1" --digest | sed -n 's/.*content digest *//p'; }
 for t in $counts; do
     "$imsynth" datagen --out "$tmp/ds$t.sqlite" --count 12 --preset draft --batch 3 --threads $t --quiet ||
         { echo "FAIL: datagen, $t threads"; failures=$((failures + 1)); }
-    digest "$tmp/ds$t.sqlite" > "$tmp/ds$t.digest"
+    dataset_digest "$tmp/ds$t.sqlite" > "$tmp/ds$t.digest"
 done
-same3 "datagen (content digest)" "$tmp/ds@.digest"
+same_for_counts "datagen (content digest)" "$tmp/ds@.digest"
 
 for t in $counts; do
     "$imsynth" forest fit --dataset "$tmp/ds1.sqlite" --trees 6 --threads $t --quiet -o "$tmp/f$t.bin" > /dev/null ||
         { echo "FAIL: forest fit, $t threads"; failures=$((failures + 1)); }
 done
-same3 "forest fit" "$tmp/f@.bin"
+same_for_counts "forest fit" "$tmp/f@.bin"
 
 ref="$root/tests/reference/nn_train"
 for t in $counts; do
@@ -62,7 +61,7 @@ for t in $counts; do
         --epochs 3 --threads $t -o "$tmp/t$t.safetensors" > /dev/null 2>&1 ||
         { echo "FAIL: train, $t threads"; failures=$((failures + 1)); }
 done
-same3 "train" "$tmp/t@.safetensors"
+same_for_counts "train" "$tmp/t@.safetensors"
 
 fit="--dataset $tmp/ds1.sqlite --components 6 --hidden 16 --batch 4 --val-fraction 0.25 --epochs 2 --quiet"
 for t in $counts; do
@@ -70,7 +69,7 @@ for t in $counts; do
         { echo "FAIL: fit-predictor, $t threads"; failures=$((failures + 1)); }
 done
 for f in network transform catalogue; do
-    same3 "fit-predictor, $f" "$tmp/model@/$f.safetensors"
+    same_for_counts "fit-predictor, $f" "$tmp/model@/$f.safetensors"
 done
 
 fast="--model $tmp/model1 --top-k 2 --nearest 2 --refine 4 --search-preset draft --final-preset draft --quiet"
@@ -79,6 +78,6 @@ for t in $counts; do
         { echo "FAIL: predict, $t threads"; failures=$((failures + 1)); }
 done
 for f in params.json material.json preview.png; do
-    same3 "predict, $f" "$tmp/out@/$f"
+    same_for_counts "predict, $f" "$tmp/out@/$f"
 done
 finish

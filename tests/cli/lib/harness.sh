@@ -21,6 +21,9 @@ expect_stdout() { # description, fragment (stdout saved in $tmp/out)
     if grep -q -- "$2" "$tmp/out"; then echo "ok: $1"; else
         echo "FAIL: $1: stdout lacks \"$2\":"; cat "$tmp/out"; failures=$((failures + 1)); fi
 }
+dataset_digest() { # dataset: the content digest `imsynth dataset info --digest` prints
+    "$imsynth" dataset info "$1" --digest | sed -n 's/.*content digest *//p'
+}
 finish() {
     [ "$failures" = 0 ] || { echo "$failures failure(s)"; exit 1; }
     echo "all ok"
