@@ -17,6 +17,7 @@
  * tests/unit/test_extract.c checks it on the super-shader anyway. Values are compared
  * with ==: the folds are Cycles' algebraic ones, which may turn -0 into +0.
  */
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -35,6 +36,7 @@ typedef struct flat {
     sg_error *err;
     bool failed;
     const sg_graph *src;
+    int n_contexts; /* group instances made so far: bounded like nodes */
 } flat;
 
 static char *dup_str(const char *s)
@@ -57,6 +59,15 @@ static int oom(flat *f)
 /* Appends a copy of typed node `n` named `name`; returns its index. */
 static int add_node(flat *f, const sg_node *n, const char *name)
 {
+    /* Groups nested in groups multiply: a few kilobytes of JSON can inline to billions
+     * of nodes. */
+    if (f->t.n_nodes >= SG_MAX_FLAT_NODES) {
+        if (!f->failed)
+            sg_error_set(f->err, "more than %d nodes once the groups are inlined (FORMAT.md, Limits)",
+                         SG_MAX_FLAT_NODES);
+        f->failed = true;
+        return -1;
+    }
     if (f->t.n_nodes == f->cap_nodes) {
         int cap = f->cap_nodes ? 2 * f->cap_nodes : 64;
         sg_node *a = realloc(f->t.nodes, sizeof *a * (size_t)cap);
@@ -281,6 +292,15 @@ static source resolve_out(flat *f, context *c, int node, int socket)
 static context *new_context(flat *f, const sg_tree *t, context *parent, int parent_node,
                             const char *prefix)
 {
+    /* A group of nothing but nested groups inlines to no nodes, but its instances
+     * multiply all the same. */
+    if (++f->n_contexts > SG_MAX_FLAT_NODES) {
+        if (!f->failed)
+            sg_error_set(f->err, "more than %d group instances once the groups are inlined "
+                         "(FORMAT.md, Limits)", SG_MAX_FLAT_NODES);
+        f->failed = true;
+        return NULL;
+    }
     context *c = calloc(1, sizeof *c);
     if (!c || !(c->map = malloc(sizeof(int) * (size_t)(t->n_nodes + 1))) ||
         !(c->child = calloc((size_t)t->n_nodes + 1, sizeof *c->child)) ||
@@ -980,27 +1000,38 @@ static void compact(flat *f)
     free(remap);
 }
 
-static int group_node_count(const sg_graph *g, int group)
+/* Memoised, since a group may be used many times and nested groups multiply; counts
+ * saturate at INT_MAX (a few kilobytes of nested groups expand past it). Recursion
+ * depth is at most the number of groups (SG_MAX_GROUPS); the load refused cycles. */
+static int group_node_count(const sg_graph *g, int group, int *memo)
 {
-    int count = 0;
+    if (memo[group] >= 0)
+        return memo[group];
+    long long count = 0;
     const sg_tree *t = &g->groups[group];
-    for (int i = 0; i < t->n_nodes; i++) {
+    for (int i = 0; i < t->n_nodes && count < INT_MAX; i++) {
         const sg_node *n = &t->nodes[i];
-        count += n->group >= 0 ? group_node_count(g, n->group) : 1;
+        count += n->group >= 0 ? group_node_count(g, n->group, memo) : 1;
     }
-    return count;
+    return memo[group] = count < INT_MAX ? (int)count : INT_MAX;
 }
 
 int sg_graph_node_count(const sg_graph *g)
 {
     /* Nodes as a user sees them in Blender with every group expanded: a group
      * instance counts its group's nodes, recursively, in place of itself. */
-    int count = 0;
-    for (int i = 0; i < g->main.n_nodes; i++) {
+    int *memo = malloc(sizeof *memo * (size_t)(g->n_groups + 1));
+    if (!memo)
+        return -1;
+    for (int i = 0; i < g->n_groups; i++)
+        memo[i] = -1;
+    long long count = 0;
+    for (int i = 0; i < g->main.n_nodes && count < INT_MAX; i++) {
         const sg_node *n = &g->main.nodes[i];
-        count += n->group >= 0 ? group_node_count(g, n->group) : 1;
+        count += n->group >= 0 ? group_node_count(g, n->group, memo) : 1;
     }
-    return count;
+    free(memo);
+    return count < INT_MAX ? (int)count : INT_MAX;
 }
 
 /* Flattens and folds g. With `sinks`, output-socket refs get a pseudo consumer each (a

@@ -671,19 +671,28 @@ static int parse_tree(const load_ctx *c, sg_tree *t, const cJSON *j, const char 
     if (!cJSON_IsArray(links))
         return sg_error_set(c->err, "%s: %slinks: missing or not an array", c->source, where);
     int nn = cJSON_GetArraySize(nodes), nl = cJSON_GetArraySize(links);
+    if (nn > SG_MAX_TREE_NODES)
+        return sg_error_set(c->err, "%s: %snodes: %d nodes, more than the %d a tree may have",
+                            c->source, where, nn, SG_MAX_TREE_NODES);
+    if (nl > SG_MAX_TREE_LINKS)
+        return sg_error_set(c->err, "%s: %slinks: %d links, more than the %d a tree may have",
+                            c->source, where, nl, SG_MAX_TREE_LINKS);
     t->nodes = calloc((size_t)nn + 1, sizeof *t->nodes);
     t->links = calloc((size_t)nl + 1, sizeof *t->links);
     if (!t->nodes || !t->links)
         return sg_error_set(c->err, "%s: out of memory", c->source);
-    for (int i = 0; i < nn; i++) {
+    /* Walked as lists: cJSON_GetArrayItem(i) starts from the head each time. */
+    const cJSON *item = nodes->child;
+    for (int i = 0; i < nn; i++, item = item->next) {
         t->n_nodes = i + 1; /* so that a failed node is freed */
         t->nodes[i].group = -1;
-        if (parse_node(c, t, cJSON_GetArrayItem(nodes, i), i) < 0)
+        if (parse_node(c, t, item, i) < 0)
             return -1;
     }
     t->n_nodes = nn;
-    for (int i = 0; i < nl; i++) {
-        if (parse_link(c, t, cJSON_GetArrayItem(links, i), i) < 0)
+    item = links->child;
+    for (int i = 0; i < nl; i++, item = item->next) {
+        if (parse_link(c, t, item, i) < 0)
             return -1;
         t->n_links = i + 1;
     }
@@ -713,6 +722,9 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
     if (groups && !cJSON_IsObject(groups))
         return sg_error_set(c->err, "%s: groups: expected an object", c->source);
     int ng = cJSON_GetArraySize(groups);
+    if (ng > SG_MAX_GROUPS)
+        return sg_error_set(c->err, "%s: groups: %d groups, more than the %d a graph may have",
+                            c->source, ng, SG_MAX_GROUPS);
     g->groups = calloc((size_t)ng + 1, sizeof *g->groups);
     if (!g->groups)
         return sg_error_set(c->err, "%s: out of memory", c->source);
@@ -843,14 +855,22 @@ sg_graph *sg_graph_load_file(const char *path, sg_error *err)
         sg_error_set(err, "%s: cannot open: %s", path, strerror(errno));
         return NULL;
     }
+    /* Read up to one byte past the limit, whatever the file claims to be (a pipe, or a
+     * file growing while read): more than the limit is refused, not truncated. */
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap);
+    bool too_large = false;
     while (buf) {
-        size_t got = fread(buf + len, 1, cap - len, f);
+        size_t want = cap - len, room = (size_t)SG_MAX_GRAPH_FILE_BYTES + 1 - len;
+        size_t got = fread(buf + len, 1, want < room ? want : room, f);
         len += got;
-        if (len < cap)
+        if (len > SG_MAX_GRAPH_FILE_BYTES) {
+            too_large = true;
             break;
-        char *nb = cap > ((size_t)1 << 30) ? NULL : realloc(buf, cap * 2);
+        }
+        if (got < want || len < cap)
+            break;
+        char *nb = realloc(buf, cap * 2);
         if (!nb) {
             free(buf);
             buf = NULL;
@@ -861,9 +881,15 @@ sg_graph *sg_graph_load_file(const char *path, sg_error *err)
     }
     bool read_error = ferror(f);
     fclose(f);
+    if (too_large) {
+        free(buf);
+        sg_error_set(err, "%s: larger than the %u bytes a graph file may have", path,
+                     SG_MAX_GRAPH_FILE_BYTES);
+        return NULL;
+    }
     if (!buf || read_error) {
         free(buf);
-        sg_error_set(err, "%s: %s", path, buf ? "read error" : "file too large or out of memory");
+        sg_error_set(err, "%s: %s", path, buf ? "read error" : "out of memory");
         return NULL;
     }
     sg_graph *g = sg_graph_load_json(buf, len, path, err);

@@ -65,6 +65,18 @@ const char *sg_socket_type_name(sg_socket_type t); /* "FLOAT", "VECTOR", "RGBA",
 
 typedef struct sg_graph sg_graph;
 
+/* Limits (FORMAT.md, "Limits"), like SQLite's: past them a graph is refused with an error
+ * before anything is allocated for it, so that a hostile file costs bounded time and
+ * memory. Validation, folding and compilation do passes over all links per node, so
+ * their cost grows with nodes x links: at the limits a graph loads and compiles in
+ * seconds; the super-shader has 531 nodes. */
+#define SG_MAX_GRAPH_FILE_BYTES (16u << 20) /* a graph file's size */
+#define SG_MAX_TREE_NODES 10000             /* nodes in the main tree or in one group */
+#define SG_MAX_TREE_LINKS 40000             /* links in one tree */
+#define SG_MAX_GROUPS 4096                  /* groups in a graph */
+#define SG_MAX_FLAT_NODES 20000             /* nodes (and group instances) once every
+                                             * group is inlined */
+
 /* Load and validate. On failure returns NULL and explains in err. `source_name` is used
  * in messages (usually the file path). */
 sg_graph *sg_graph_load_file(const char *path, sg_error *err);
@@ -162,7 +174,8 @@ typedef struct sg_extract_options {
 sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err);
 
 /* Nodes as Blender shows them with every group expanded in place: a group node counts
- * as its group's nodes (recursively), not as one. */
+ * as its group's nodes (recursively), not as one. Saturates at INT_MAX; -1 when out of
+ * memory. */
 int sg_graph_node_count(const sg_graph *g);
 
 /* ---- the scene's plane, for eval-graph and tests ---------------------------------- */

@@ -5,6 +5,7 @@
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <limits.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -363,6 +364,140 @@ static void test_surface_bsdf(void **state)
     sg_graph_free(g);
 }
 
+/* ---- limits (FORMAT.md, "Limits") ------------------------------------------------- */
+
+/* Appends printf-formatted text to a growing buffer. */
+typedef struct text_buf {
+    char *s;
+    size_t len, cap;
+} text_buf;
+
+static void put(text_buf *b, const char *fmt, ...)
+{
+    va_list ap;
+    for (;;) {
+        va_start(ap, fmt);
+        int n = vsnprintf(b->s + b->len, b->cap - b->len, fmt, ap);
+        va_end(ap);
+        assert_true(n >= 0);
+        if (b->len + (size_t)n < b->cap) {
+            b->len += (size_t)n;
+            return;
+        }
+        b->cap = 2 * (b->cap + (size_t)n);
+        b->s = realloc(b->s, b->cap);
+        assert_non_null(b->s);
+    }
+}
+
+/* A material whose Roughness is fed by a chain of `n` Math nodes. */
+static char *math_chain(int n)
+{
+    text_buf b = {malloc(1024), 0, 1024};
+    assert_non_null(b.s);
+    put(&b, "{\"format\": \"imsynth-graph/1\", \"nodes\": ["
+            "{\"name\": \"O\", \"type\": \"ShaderNodeOutputMaterial\"},"
+            "{\"name\": \"P\", \"type\": \"ShaderNodeBsdfPrincipled\"}");
+    for (int i = 0; i < n; i++)
+        put(&b, ",{\"name\": \"M%d\", \"type\": \"ShaderNodeMath\", \"inputs\": {\"Value_001\": 1e-5}}", i);
+    put(&b, "], \"links\": [{\"from_node\": \"P\", \"from_socket\": \"BSDF\", \"to_node\": \"O\", "
+            "\"to_socket\": \"Surface\"}");
+    for (int i = 1; i < n; i++)
+        put(&b, ",{\"from_node\": \"M%d\", \"from_socket\": \"Value\", \"to_node\": \"M%d\", "
+                "\"to_socket\": \"Value\"}", i - 1, i);
+    put(&b, ",{\"from_node\": \"M%d\", \"from_socket\": \"Value\", \"to_node\": \"P\", "
+            "\"to_socket\": \"Roughness\"}]}", n - 1);
+    return b.s;
+}
+
+/* Groups G0..G(depth-1), each G(k) two G(k-1) in series (G0 passes its input through):
+ * a few kilobytes that inline to 2^(depth-1) group instances. */
+static char *group_bomb(int depth)
+{
+    text_buf b = {malloc(1024), 0, 1024};
+    assert_non_null(b.s);
+    put(&b, "{\"format\": \"imsynth-graph/1\", \"nodes\": ["
+            "{\"name\": \"O\", \"type\": \"ShaderNodeOutputMaterial\"},"
+            "{\"name\": \"P\", \"type\": \"ShaderNodeBsdfPrincipled\"},"
+            "{\"name\": \"T\", \"type\": \"ShaderNodeGroup\", \"group\": \"G%d\"}],"
+            "\"links\": [{\"from_node\": \"P\", \"from_socket\": \"BSDF\", \"to_node\": \"O\", \"to_socket\": \"Surface\"},"
+            "{\"from_node\": \"T\", \"from_socket\": \"V\", \"to_node\": \"P\", \"to_socket\": \"Roughness\"}],"
+            "\"groups\": {", depth - 1);
+    const char *io = "\"inputs\": [{\"name\": \"V\", \"type\": \"FLOAT\"}], "
+                     "\"outputs\": [{\"name\": \"V\", \"type\": \"FLOAT\"}], ";
+    put(&b, "\"G0\": {%s\"nodes\": [{\"name\": \"I\", \"type\": \"NodeGroupInput\"},"
+            "{\"name\": \"U\", \"type\": \"NodeGroupOutput\"}], \"links\": [{\"from_node\": \"I\", "
+            "\"from_socket\": \"V\", \"to_node\": \"U\", \"to_socket\": \"V\"}]}", io);
+    for (int k = 1; k < depth; k++)
+        put(&b, ",\"G%d\": {%s\"nodes\": [{\"name\": \"I\", \"type\": \"NodeGroupInput\"},"
+                "{\"name\": \"A\", \"type\": \"ShaderNodeGroup\", \"group\": \"G%d\"},"
+                "{\"name\": \"B\", \"type\": \"ShaderNodeGroup\", \"group\": \"G%d\"},"
+                "{\"name\": \"U\", \"type\": \"NodeGroupOutput\"}], \"links\": ["
+                "{\"from_node\": \"I\", \"from_socket\": \"V\", \"to_node\": \"A\", \"to_socket\": \"V\"},"
+                "{\"from_node\": \"A\", \"from_socket\": \"V\", \"to_node\": \"B\", \"to_socket\": \"V\"},"
+                "{\"from_node\": \"B\", \"from_socket\": \"V\", \"to_node\": \"U\", \"to_socket\": \"V\"}]}",
+            k, io, k - 1, k - 1);
+    put(&b, "}}");
+    return b.s;
+}
+
+static void test_limits_refuse_before_work(void **state)
+{
+    (void)state;
+    sg_error err = {{0}};
+    /* At the limit a tree loads and compiles (the super-shader has 531 nodes). */
+    char *at = math_chain(SG_MAX_TREE_NODES - 2);
+    sg_graph *g = load(at, &err);
+    if (!g)
+        fail_msg("%s", err.msg);
+    sg_socket_ref ref = {"P", "Roughness"};
+    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    if (!p)
+        fail_msg("%s", err.msg);
+    sg_program_free(p);
+    sg_graph_free(g);
+    free(at);
+    /* One past it, refused at load. */
+    char *over = math_chain(SG_MAX_TREE_NODES - 1);
+    expect_error(over, "nodes: 10001 nodes, more than the 10000", NULL);
+    free(over);
+
+    /* Nested groups: refused when inlined, counted without expanding them. */
+    char *bomb = group_bomb(40);
+    g = load(bomb, &err);
+    if (!g)
+        fail_msg("%s", err.msg);
+    /* G(k) shows 2^(k+2) - 2 nodes: G39 more than INT_MAX. */
+    assert_int_equal(sg_graph_node_count(g), INT_MAX);
+    p = sg_compile(g, &ref, 1, NULL, &err);
+    assert_null(p);
+    if (!strstr(err.msg, "more than 20000 group instances"))
+        fail_msg("\"%s\"", err.msg);
+    sg_graph_free(g);
+    free(bomb);
+    /* A small bomb counts exactly: G3 shows 2^5 - 2 nodes, next to O and P. */
+    bomb = group_bomb(4);
+    g = load(bomb, &err);
+    assert_non_null(g);
+    assert_int_equal(sg_graph_node_count(g), 2 + 30);
+    sg_graph_free(g);
+    free(bomb);
+
+    /* A file one byte over the size limit, refused before it is parsed. */
+    char path[] = IMSYNTH_BINARY_DIR "/test_graph_too_large.json";
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(valid_graph, f);
+    for (size_t n = strlen(valid_graph); n <= SG_MAX_GRAPH_FILE_BYTES; n++)
+        fputc(' ', f);
+    assert_int_equal(fclose(f), 0);
+    g = sg_graph_load_file(path, &err);
+    assert_null(g);
+    if (!strstr(err.msg, "test_graph_too_large.json: larger than the 16777216 bytes"))
+        fail_msg("\"%s\"", err.msg);
+    remove(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -380,6 +515,7 @@ int main(void)
         cmocka_unit_test(test_link_conversions),
         cmocka_unit_test(test_pointwise_equals_batch),
         cmocka_unit_test(test_surface_bsdf),
+        cmocka_unit_test(test_limits_refuse_before_work),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
