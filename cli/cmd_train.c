@@ -144,7 +144,7 @@ static int write_loss_csv(const char *path, const double *loss, const float *lr,
         fputc('\n', f);
     }
     if (fclose(f)) {
-        snprintf(err, errlen, "%s: write error", tmp);
+        snprintf(err, errlen, "%s: write error: %s", tmp, strerror(errno));
         remove(tmp);
         return -1;
     }

@@ -575,7 +575,44 @@ done:
  * later ones are usually consequences of it). */
 typedef struct exr_error_sink {
     char message[256];
+    int fd;          /* writing: the temp file, written by exr_write_to_fd */
+    int write_errno; /* writing: errno of the first failed write, else 0 */
 } exr_error_sink;
+
+/* Writing streams through our own file descriptor, for two reasons: the error of a
+ * failed write (a full disk) reaches the message, and the error handler below is never
+ * needed while writing. OpenEXR Core locks a write context for the whole of each call
+ * and exr_get_user_data takes that lock again, so a handler that asks for its user data
+ * during exr_write_header deadlocks (found by tests/cli/faults.sh on a full disk). */
+static int64_t exr_write_to_fd(exr_const_context_t ctxt, void *user, const void *buffer,
+                               uint64_t size, uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    (void)ctxt;
+    (void)error_cb; /* it would call the error handler: the errno is kept instead */
+    exr_error_sink *sink = user;
+    const char *p = buffer;
+    uint64_t done = 0;
+    while (done < size) {
+        ssize_t n = pwrite(sink->fd, p + done, (size_t)(size - done), (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            if (!sink->write_errno)
+                sink->write_errno = n < 0 ? errno : EIO;
+            return -1;
+        }
+        done += (uint64_t)n;
+    }
+    return (int64_t)size;
+}
+
+/* Write contexts only: must not touch ctxt (see above). */
+static void exr_error_ignored(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    (void)ctxt;
+    (void)code;
+    (void)msg;
+}
 
 static void exr_error_to_sink(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
@@ -590,6 +627,8 @@ static void exr_error_to_sink(exr_const_context_t ctxt, exr_result_t code, const
 
 static const char *exr_message(const exr_error_sink *sink, exr_result_t code)
 {
+    if (sink->write_errno)
+        return strerror(sink->write_errno);
     return sink->message[0] ? sink->message : exr_get_default_error_message(code);
 }
 
@@ -605,12 +644,20 @@ static exr_result_t write_exr_file(const char *tmp, const image *img, exr_pixel_
     const char *const *names = img->channels == 1 ? names_y : names_rgba;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = exr_error_to_sink;
+    init.error_handler_fn = exr_error_ignored;
+    init.write_fn = exr_write_to_fd;
     init.user_data = sink;
+    sink->fd = open(tmp, O_WRONLY | O_TRUNC | O_CLOEXEC);
+    if (sink->fd < 0) {
+        sink->write_errno = errno;
+        return EXR_ERR_FILE_ACCESS;
+    }
     exr_context_t ctxt = NULL;
     exr_result_t rv = exr_start_write(&ctxt, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
-    if (rv != EXR_ERR_SUCCESS)
+    if (rv != EXR_ERR_SUCCESS) {
+        close(sink->fd);
         return rv;
+    }
 
     exr_encode_pipeline_t encoder;
     int encoder_live = 0;
@@ -689,6 +736,10 @@ static exr_result_t write_exr_file(const char *tmp, const image *img, exr_pixel_
         exr_encoding_destroy(ctxt, &encoder);
     /* exr_finish writes the chunk offset table: its failure is a failed write too. */
     exr_result_t finished = exr_finish(&ctxt);
+    if (close(sink->fd) != 0 && !sink->write_errno) {
+        sink->write_errno = errno;
+        finished = EXR_ERR_WRITE_IO;
+    }
     return rv != EXR_ERR_SUCCESS ? rv : finished;
 }
 

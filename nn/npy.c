@@ -269,6 +269,9 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
     /* descr: '<f4', '|b1', '<i8', '|u1', ... ('=' and '|' mean native / not applicable). */
     char order = d[1], type = d[2];
     int size = atoi(d + 3);
+    int dlen = (int)strcspn(d + 1, "'"); /* the dtype text, for messages */
+    if (dlen > 16)
+        dlen = 16;
     npy_kind kind;
     if (type == 'f' && size == 4)
         kind = NPY_F4;
@@ -281,8 +284,8 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
     else if (type == 'b' && size == 1)
         kind = NPY_BOOL;
     else {
-        set_err(err, errlen, "%s: unsupported dtype %.8s (float16/32/64, int, uint, bool)",
-                path, d);
+        set_err(err, errlen, "%s: unsupported dtype '%.*s' (float16/32/64, int, uint, bool)",
+                path, dlen, d + 1);
         goto done;
     }
     if (order == '>' && size > 1) {
@@ -323,8 +326,8 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
     }
     size_t fsize = (size_t)ftell(f);
     if (here < 0 || (size_t)here != pre_len + hlen || fsize - (size_t)here != nbytes) {
-        set_err(err, errlen, "%s: data is %zu bytes, header (shape %zu x %zu, %.8s) says %zu",
-                path, fsize - (size_t)here, r, c, d, nbytes);
+        set_err(err, errlen, "%s: data is %zu bytes, header (shape %zu x %zu, '%.*s') says %zu",
+                path, fsize - (size_t)here, r, c, dlen, d + 1, nbytes);
         goto done;
     }
     fseek(f, here, SEEK_SET);

@@ -426,8 +426,9 @@ int nn_safetensors_write(const char *path, const nn_tensor_out *tensors, int n,
             k += chunk;
         }
     }
+    /* fwrite's failure sets errno, and fclose fails again flushing the rest. */
     if (fclose(f) || !ok) {
-        set_err(err, errlen, "%s: write error", tmp);
+        set_err(err, errlen, "%s: write error: %s", tmp, strerror(errno ? errno : EIO));
         remove(tmp);
         return -1;
     }

@@ -655,8 +655,9 @@ int dataset_export_npy(dataset *d, const char *dir, char *err, size_t errlen)
     for (size_t k = 0; k < np; k++)
         fprintf(f, "%s\n", d->names[k]);
     if (fclose(f) != 0 || rename(tmp, names_path) != 0) {
+        int e = errno;
         unlink(tmp);
-        return pipeline_error(err, errlen, "%s: write failed", names_path);
+        return pipeline_error(err, errlen, "%s: write failed: %s", names_path, strerror(e));
     }
     return 0;
 }

@@ -960,9 +960,11 @@ static int write_text(const char *dir, const char *name, const char *text, char 
     if (!f)
         return pipeline_error(err, errlen, "%s: cannot create: %s", path, strerror(errno));
     size_t len = strlen(text);
+    errno = 0;
     int ok = fwrite(text, 1, len, f) == len;
     ok = fclose(f) == 0 && ok;
-    return ok ? 0 : pipeline_error(err, errlen, "%s: write failed", path);
+    return ok ? 0 : pipeline_error(err, errlen, "%s: write failed: %s", path,
+                                   strerror(errno ? errno : EIO));
 }
 
 /* A growing string (the CSV, markdown and HTML are built in memory: they are small). */

@@ -14,11 +14,15 @@
  *   - the config never changes once written (a different config is refused at open).
  * WAL journaling: a kill -9 at any moment loses at most the open transaction.
  */
+#include <errno.h>
+#include <fcntl.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include "pipeline/store.h"
 
@@ -84,8 +88,11 @@ sqlite3 *store_connect(const char *path, int flags, char *err, size_t errlen)
     sqlite3 *db = NULL;
     int rc = sqlite3_open_v2(path, &db, flags, NULL);
     if (rc != SQLITE_OK) {
-        pipeline_error(err, errlen, "%s: cannot open: %s", path,
-                       db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
+        /* SQLite's "unable to open database file" does not say why; the OS does. */
+        int os = db ? sqlite3_system_errno(db) : 0;
+        pipeline_error(err, errlen, "%s: cannot open: %s%s%s%s", path,
+                       db ? sqlite3_errmsg(db) : sqlite3_errstr(rc), os ? " (" : "",
+                       os ? strerror(os) : "", os ? ")" : "");
         sqlite3_close(db);
         return NULL;
     }
@@ -132,12 +139,39 @@ static void describe_config_difference(const char *a, const char *b, char *out, 
     cJSON_Delete(jb);
 }
 
+/* Removes a database this process created and could not set up, with SQLite's side
+ * files, so that a failure (a full disk) leaves no file that is not a dataset. */
+static void remove_new_database(const char *path)
+{
+    char side[1200];
+    unlink(path);
+    snprintf(side, sizeof side, "%s-wal", path);
+    unlink(side);
+    snprintf(side, sizeof side, "%s-shm", path);
+    unlink(side);
+}
+
 sqlite3 *store_open_for_writing(const char *path, const char *config_json,
                                 const char *params_json, char *err, size_t errlen)
 {
-    sqlite3 *db = store_connect(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, err, errlen);
-    if (!db)
+    /* A new file is created here rather than by SQLite, whose error for a read-only
+     * directory ("unable to open database file") does not say why. An empty file is an
+     * empty database. O_EXCL: if another writer creates it first, it is theirs. */
+    bool created = false;
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+        close(fd);
+        created = true;
+    } else if (errno != EEXIST) {
+        pipeline_error(err, errlen, "%s: cannot create: %s", path, strerror(errno));
         return NULL;
+    }
+    sqlite3 *db = store_connect(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, err, errlen);
+    if (!db) {
+        if (created)
+            remove_new_database(path);
+        return NULL;
+    }
     char hash[65];
     pipeline_sha256_hex(config_json, strlen(config_json), hash);
     if (store_exec(db, path, "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;", err, errlen) ||
@@ -176,5 +210,7 @@ fail_rollback:
     sqlite3_exec(db, "ROLLBACK", NULL, NULL, NULL);
 fail:
     sqlite3_close(db);
+    if (created)
+        remove_new_database(path);
     return NULL;
 }

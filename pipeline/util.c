@@ -137,7 +137,7 @@ int pipeline_write_loss_svg(const char *path, const double *loss, const double *
                     T + (H - T - Bm) * (lhi - log10(val[i])) / (lhi - llo));
     fprintf(f, "</svg>\n");
     if (fclose(f)) {
-        snprintf(err, errlen, "%s: write error", tmp);
+        snprintf(err, errlen, "%s: write error: %s", tmp, strerror(errno));
         remove(tmp);
         return -1;
     }
@@ -156,11 +156,18 @@ int pipeline_write_text_atomic(const char *path, const char *text, char *err, si
     FILE *f = fopen(tmp, "w");
     if (!f)
         return pipeline_error(err, errlen, "%s: %s", tmp, strerror(errno));
+    errno = 0;
     int bad = fputs(text, f) < 0;
     bad |= fclose(f) != 0;
-    if (bad || rename(tmp, path)) {
+    if (bad) {
+        int e = errno ? errno : EIO;
         remove(tmp);
-        return pipeline_error(err, errlen, "%s: write error (disk full?)", path);
+        return pipeline_error(err, errlen, "%s: write error: %s", tmp, strerror(e));
+    }
+    if (rename(tmp, path)) {
+        int e = errno;
+        remove(tmp);
+        return pipeline_error(err, errlen, "%s: cannot rename into place: %s", path, strerror(e));
     }
     return 0;
 }
