@@ -2,6 +2,8 @@
 
     make_images.py nan-exr OUT.exr W H    an uncompressed float RGB EXR, every value NaN
     make_images.py png OUT.png W H        an 8-bit grey PNG, a ramp
+    make_images.py png-claim OUT.png W H  a PNG whose header claims W x H pixels but whose
+                                          data holds one row (a hostile size)
 """
 import struct
 import sys
@@ -32,8 +34,10 @@ def nan_exr(path, w, h):
             f.write(struct.pack("<ii", y, len(line)) + line)
 
 
-def grey_png(path, w, h):
-    raw = b"".join(b"\0" + bytes((x * 255 // max(w - 1, 1)) for x in range(w)) for _ in range(h))
+def png_file(path, w, h, rows):
+    """An 8-bit grey PNG whose header says w x h, holding `rows` rows of a ramp."""
+    raw = b"".join(b"\0" + bytes((x * 255 // max(w - 1, 1)) % 256 for x in range(w))
+                   for _ in range(rows))
 
     def chunk(tag, data):
         return (struct.pack(">I", len(data)) + tag + data +
@@ -44,6 +48,14 @@ def grey_png(path, w, h):
                 chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
+def grey_png(path, w, h):
+    png_file(path, w, h, h)
+
+
+def png_claim(path, w, h):
+    png_file(path, w, h, 1)
+
+
 if __name__ == "__main__":
     kind, out, w, h = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
-    {"nan-exr": nan_exr, "png": grey_png}[kind](out, w, h)
+    {"nan-exr": nan_exr, "png": grey_png, "png-claim": png_claim}[kind](out, w, h)
