@@ -267,11 +267,17 @@ int nn_npy_read_f32(const char *path, float **data, size_t *rows, size_t *cols, 
         goto done;
     }
     /* descr: '<f4', '|b1', '<i8', '|u1', ... ('=' and '|' mean native / not applicable). */
+    /* The dtype text between the quotes: at least an order, a kind and a size, and
+     * closed within the header (d[1], d[2] and atoi read no further than it). */
+    int dlen = (int)strcspn(d + 1, "'");
+    if (dlen < 3 || d[1 + dlen] != '\'') {
+        set_err(err, errlen, "%s: header has a bad descr: %.100s", path, header);
+        goto done;
+    }
+    if (dlen > 16)
+        dlen = 16; /* for messages */
     char order = d[1], type = d[2];
     int size = atoi(d + 3);
-    int dlen = (int)strcspn(d + 1, "'"); /* the dtype text, for messages */
-    if (dlen > 16)
-        dlen = 16;
     npy_kind kind;
     if (type == 'f' && size == 4)
         kind = NPY_F4;
