@@ -513,7 +513,8 @@ sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
     sg_socket_ref *resolved = calloc((size_t)n_refs + 1, sizeof *resolved);
     sg_socket_type *types = calloc((size_t)n_refs + 1, sizeof *types);
     sg_graph *folded = resolved && types
-                           ? sg_fold_for_compile(g, mode, refs, n_refs, resolved, types, err)
+                           ? sg_fold_for_compile(g, mode, !(opt && opt->unfolded), refs, n_refs,
+                                                 resolved, types, err)
                            : NULL;
     sg_program *p = NULL;
     if (folded) {

@@ -1038,8 +1038,8 @@ int sg_graph_node_count(const sg_graph *g)
  * Material Output whose Displacement or Thickness reads the socket), so the folds apply
  * to them as to any consumer; their resolved refs are written to `resolved`. */
 static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool extract,
-                                  const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
-                                  sg_socket_type *types, sg_error *err)
+                                  bool fold_constants, const sg_socket_ref *refs, int n_refs,
+                                  sg_socket_ref *resolved, sg_socket_type *types, sg_error *err)
 {
     flat f = {.err = err, .src = g};
     context *root = new_context(&f, &g->main, NULL, -1, "");
@@ -1092,7 +1092,7 @@ static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool 
         types[k] = src.type;
     }
     free_context(root);
-    for (int round = 0; !f.failed && round < 10000; round++) {
+    for (int round = 0; fold_constants && !f.failed && round < 10000; round++) {
         bool changed = false;
         for (int i = 0; i < f.t.n_nodes && !f.failed; i++)
             if (!f.dead[i] && has_consumers(&f, i))
@@ -1146,12 +1146,12 @@ static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool 
 sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err)
 {
     sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
-    return flatten_and_fold(g, mode, true, NULL, 0, NULL, NULL, err);
+    return flatten_and_fold(g, mode, true, true, NULL, 0, NULL, NULL, err);
 }
 
-sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, const sg_socket_ref *refs,
-                              int n_refs, sg_socket_ref *resolved, sg_socket_type *types,
-                              sg_error *err)
+sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, bool fold_constants,
+                              const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
+                              sg_socket_type *types, sg_error *err)
 {
-    return flatten_and_fold(g, mode, false, refs, n_refs, resolved, types, err);
+    return flatten_and_fold(g, mode, false, fold_constants, refs, n_refs, resolved, types, err);
 }

@@ -74,9 +74,10 @@ int sg_node_output_index(const sg_node *n, const char *identifier);
 /* The graph Cycles would render (extract.c): groups inlined, reroutes and Value/RGB
  * nodes gone, constant-folded with Cycles' rules for Blender `mode`. Each ref is
  * resolved to a socket of the result (`resolved`, names pointing into the result) and
- * its value type (`types`). Unreachable nodes are kept. Free with sg_graph_free. */
-sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, const sg_socket_ref *refs,
-                              int n_refs, sg_socket_ref *resolved, sg_socket_type *types,
-                              sg_error *err);
+ * its value type (`types`). Unreachable nodes are kept. Free with sg_graph_free.
+ * fold_constants = false: inlined and resolved only (sg_compile_options.unfolded). */
+sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, bool fold_constants,
+                              const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
+                              sg_socket_type *types, sg_error *err);
 
 #endif

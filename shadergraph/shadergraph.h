@@ -113,6 +113,10 @@ int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err);
 
 typedef struct sg_compile_options {
     sg_blender_mode blender; /* 0 means SG_BLENDER_4 */
+    /* Groups inlined, reroutes and Value/RGB nodes resolved, and nothing else: no
+     * constant folding, bypasses or merging. Slower; the reference that folding and
+     * extraction are tested against (test_extract). */
+    bool unfolded;
 } sg_compile_options;
 
 typedef struct sg_program sg_program;
