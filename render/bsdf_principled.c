@@ -62,43 +62,29 @@
 /* Cycles drops closures whose weight is below this. */
 #define CLOSURE_WEIGHT_CUTOFF 1e-5f
 
-typedef principled_vec3 vec3;
+/* Vectors are the kernels' float3 and scalars use Cycles' helpers, as the node kernels
+ * do (shadergraph/kernel_math.h: mix, saturatef, sqr, safe_sqrtf, ...). */
 
-static vec3 v3(float x, float y, float z)
+static float3 v3_load(const float a[3]) { return make_float3(a[0], a[1], a[2]); }
+static bool v3_equal(float3 a, float3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+/* a times the reciprocal of its length, or fallback if the length is not positive (so
+ * also for a NaN length, where Cycles' safe_normalize_fallback gives NaNs). */
+static float3 v3_normalize_or(float3 a, float3 fallback)
 {
-    vec3 r = {x, y, z};
-    return r;
-}
-static vec3 v3_load(const float a[3]) { return v3(a[0], a[1], a[2]); }
-static vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-static vec3 v3_sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-static vec3 v3_scale(vec3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
-static float v3_dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static vec3 v3_cross(vec3 a, vec3 b)
-{
-    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-static bool v3_equal(vec3 a, vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
-static vec3 v3_normalize_or(vec3 a, vec3 fallback)
-{
-    float l = sqrtf(v3_dot(a, a));
-    return l > 0.0f ? v3_scale(a, 1.0f / l) : fallback;
+    float l = sqrtf(f3_dot(a, a));
+    return l > 0.0f ? f3_scale(a, 1.0f / l) : fallback;
 }
 
-static float saturate(float x) { return fminf(fmaxf(x, 0.0f), 1.0f); }
-static float sqr(float x) { return x * x; }
-static float safe_sqrt(float x) { return sqrtf(fmaxf(x, 0.0f)); }
-static float mixf(float a, float b, float t) { return a + (b - a) * t; }
 static float average3(const float c[3]) { return (c[0] + c[1] + c[2]) * (1.0f / 3.0f); }
 
 /* Orthonormal tangents of a unit n (Duff et al. 2017). */
-static void tangent_frame(vec3 n, vec3 *t, vec3 *b)
+static void tangent_frame(float3 n, float3 *t, float3 *b)
 {
     float sign = copysignf(1.0f, n.z);
     float a = -1.0f / (sign + n.z);
     float c = n.x * n.y * a;
-    *t = v3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
-    *b = v3(c, sign + n.y * n.y * a, -n.y);
+    *t = make_float3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    *b = make_float3(c, sign + n.y * n.y * a, -n.y);
 }
 
 /* ---- Fresnel ---------------------------------------------------------------------- */
@@ -140,71 +126,48 @@ static float fresnel_interpolation(float cos_hi, float eta)
  * surface, rotate N towards Ng, in their common plane, until the reflection sits at the
  * threshold t above the surface. Squaring the condition 2 (N'.I) N'.z - I.z = t gives a
  * quadratic in N'.z^2 with one root of the right sign, chosen by the sign of I.x. */
-static vec3 valid_specular_normal_4x(vec3 Ng, vec3 I, vec3 N)
+static float3 valid_specular_normal_4x(float3 Ng, float3 I, float3 N)
 {
     if (v3_equal(N, Ng))
         return N;
-    vec3 R = v3_sub(v3_scale(N, 2.0f * v3_dot(N, I)), I);
-    float Iz = v3_dot(I, Ng);
+    float3 R = f3_sub(f3_scale(N, 2.0f * f3_dot(N, I)), I);
+    float Iz = f3_dot(I, Ng);
     float t = fminf(0.9f * Iz, 0.01f);
-    if (v3_dot(Ng, R) >= t)
+    if (f3_dot(Ng, R) >= t)
         return N;
-    vec3 X = v3_normalize_or(v3_sub(N, v3_scale(Ng, v3_dot(N, Ng))), N);
-    float Ix = v3_dot(I, X);
+    float3 X = v3_normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
+    float Ix = f3_dot(I, X);
     float a = Ix * Ix + Iz * Iz;
     float b = 2.0f * (a + Iz * t);
     float c = sqr(t + Iz);
-    float root = safe_sqrt(b * b - 4.0f * a * c);
+    float root = safe_sqrtf(b * b - 4.0f * a * c);
     float Nz2 = Ix < 0.0f ? 0.25f * (b + root) / a : 0.25f * (b - root) / a;
-    return v3_add(v3_scale(X, safe_sqrt(1.0f - Nz2)), v3_scale(Ng, safe_sqrt(Nz2)));
+    return f3_add(f3_scale(X, safe_sqrtf(1.0f - Nz2)), f3_scale(Ng, safe_sqrtf(Nz2)));
 }
 
-/* Blender 3.x's older solution of the same problem: both roots of the biquadratic are
- * candidates; prefer the valid one whose reflection is shallower; Ng if none is valid. */
-static vec3 valid_reflection_normal_3x(vec3 Ng, vec3 I, vec3 N)
+/* Blender 3.x's older solution of the same problem, Cycles' ensure_valid_reflection
+ * (shadergraph/kernel_math.h), except that the in-plane tangent X is normalised by a
+ * reciprocal with N as fallback (v3_normalize_or) where Cycles divides: the rendered
+ * bits depend on it, so it stays until a reference render says otherwise. */
+static float3 valid_reflection_normal_3x(float3 Ng, float3 I, float3 N)
 {
-    vec3 R = v3_sub(v3_scale(N, 2.0f * v3_dot(N, I)), I);
-    float t = fminf(0.9f * v3_dot(Ng, I), 0.01f);
-    if (v3_dot(Ng, R) >= t)
+    float t = valid_reflection_threshold(Ng, I);
+    if (reflection_is_valid(Ng, I, N, t))
         return N;
-    vec3 X = v3_normalize_or(v3_sub(N, v3_scale(Ng, v3_dot(N, Ng))), N);
-    float Ix = v3_dot(I, X), Iz = v3_dot(I, Ng);
-    float a = Ix * Ix + Iz * Iz;
-    float b = safe_sqrt(Ix * Ix * (a - t * t));
-    float c = Iz * t + a;
-    float z1 = 0.5f / a * (b + c), z2 = 0.5f / a * (c - b);
-    bool ok1 = z1 > 1e-5f && z1 <= 1.0f + 1e-5f;
-    bool ok2 = z2 > 1e-5f && z2 <= 1.0f + 1e-5f;
-    float nx, nz;
-    if (ok1 && ok2) {
-        float x1 = safe_sqrt(1.0f - z1), s1 = safe_sqrt(z1);
-        float x2 = safe_sqrt(1.0f - z2), s2 = safe_sqrt(z2);
-        float R1 = 2.0f * (x1 * Ix + s1 * Iz) * s1 - Iz;
-        float R2 = 2.0f * (x2 * Ix + s2 * Iz) * s2 - Iz;
-        bool v1 = R1 >= 1e-5f, v2 = R2 >= 1e-5f;
-        bool pick1 = (v1 && v2) ? (R1 < R2) : (R1 > R2);
-        nx = pick1 ? x1 : x2;
-        nz = pick1 ? s1 : s2;
-    } else if (ok1 || ok2) {
-        float z = ok1 ? z1 : z2;
-        nx = safe_sqrt(1.0f - z);
-        nz = safe_sqrt(z);
-    } else {
-        return Ng;
-    }
-    return v3_add(v3_scale(X, nx), v3_scale(Ng, nz));
+    float3 X = v3_normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
+    return valid_reflection_in_plane(Ng, I, X, t);
 }
 
 /* Cycles' shadow-terminator term for diffuse closures whose normal N differs from the
  * smooth normal (Chiang, Li and Burley, "Taming the Shadow Terminator"); 4.x smooths it
  * only with Bump Map Correction on (the default), 3.x always. L is the light direction. */
-static float bump_shadowing(vec3 Ng, vec3 N, vec3 L)
+static float bump_shadowing(float3 Ng, float3 N, float3 L)
 {
-    float cos_nl = v3_dot(N, L);
+    float cos_nl = f3_dot(N, L);
     if (cos_nl < 0.0f)
-        Ng = v3_scale(Ng, -1.0f);
-    float den = cos_nl * v3_dot(Ng, N);
-    float g = den != 0.0f ? v3_dot(Ng, L) / den : 0.0f;
+        Ng = f3_scale(Ng, -1.0f);
+    float den = cos_nl * f3_dot(Ng, N);
+    float g = den != 0.0f ? f3_dot(Ng, L) / den : 0.0f;
     if (g >= 1.0f)
         return 1.0f;
     if (g < 0.0f)
@@ -230,20 +193,20 @@ static float ggx_D(float alpha2, float cos_nh)
 
 /* Heitz 2018's sampling of the visible normals of isotropic GGX, in the frame where the
  * normal is +z and v (unit, v.z > 0) is the view. */
-static vec3 ggx_sample_visible_normal(vec3 v, float alpha, float u1, float u2)
+static float3 ggx_sample_visible_normal(float3 v, float alpha, float u1, float u2)
 {
-    vec3 vh = v3_normalize_or(v3(alpha * v.x, alpha * v.y, v.z), v3(0, 0, 1));
+    float3 vh = v3_normalize_or(make_float3(alpha * v.x, alpha * v.y, v.z), make_float3(0, 0, 1));
     float lensq = vh.x * vh.x + vh.y * vh.y;
-    vec3 t1 = lensq > 1e-7f ? v3_scale(v3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq))
-                            : v3(1.0f, 0.0f, 0.0f);
-    vec3 t2 = v3_cross(vh, t1);
+    float3 t1 = lensq > 1e-7f ? f3_scale(make_float3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq))
+                            : make_float3(1.0f, 0.0f, 0.0f);
+    float3 t2 = f3_cross(vh, t1);
     float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
     float px = r * cosf(phi), py = r * sinf(phi);
     float s = 0.5f * (1.0f + vh.z);
-    py = (1.0f - s) * safe_sqrt(1.0f - px * px) + s * py;
-    vec3 h = v3_add(v3_add(v3_scale(t1, px), v3_scale(t2, py)),
-                    v3_scale(vh, safe_sqrt(1.0f - px * px - py * py)));
-    return v3_normalize_or(v3(alpha * h.x, alpha * h.y, fmaxf(0.0f, h.z)), v3(0, 0, 1));
+    py = (1.0f - s) * safe_sqrtf(1.0f - px * px) + s * py;
+    float3 h = f3_add(f3_add(f3_scale(t1, px), f3_scale(t2, py)),
+                    f3_scale(vh, safe_sqrtf(1.0f - px * px - py * py)));
+    return v3_normalize_or(make_float3(alpha * h.x, alpha * h.y, fmaxf(0.0f, h.z)), make_float3(0, 0, 1));
 }
 
 /* ---- Closures ----------------------------------------------------------------------- */
@@ -264,28 +227,28 @@ typedef principled_closure closures;
 static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
 {
     if (l->fresnel == FRESNEL_F82_TINT) {
-        float m = saturate(1.0f - cos_hi);
+        float m = saturatef(1.0f - cos_hi);
         float m5 = sqr(sqr(m)) * m;
         for (int c = 0; c < 3; c++)
-            F[c] = saturate(mixf(l->f0[c], 1.0f, m5) - l->b[c] * cos_hi * m5 * m);
+            F[c] = saturatef(mix(l->f0[c], 1.0f, m5) - l->b[c] * cos_hi * m5 * m);
         return;
     }
     float s = fresnel_interpolation(cos_hi, l->eta);
     if (l->fresnel == FRESNEL_DIELECTRIC_4X)
-        s = saturate(s);
+        s = saturatef(s);
     for (int c = 0; c < 3; c++)
-        F[c] = mixf(l->f0[c], 1.0f, s);
+        F[c] = mix(l->f0[c], 1.0f, s);
 }
 
 /* The microfacet formula (f * |cos| without weight, and pdf) for the direction L wherever
  * it is relative to the lobe's normal: Lambda depends on cos^2 only. The callers below
  * decide where it applies. */
-static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float cos_nv,
+static void microfacet_formula(const closures *cl, const lobe *l, float3 L, float cos_nv,
                                float cos_nl, float f[3], float *pdf)
 {
-    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
+    float3 H = v3_normalize_or(f3_add(cl->V, L), l->N);
     float alpha2 = l->alpha * l->alpha;
-    float D = ggx_D(alpha2, v3_dot(l->N, H));
+    float D = ggx_D(alpha2, f3_dot(l->N, H));
     float common = D * 0.25f / cos_nv;
     float G, G1v;
     if (cl->blender == 3) {
@@ -300,7 +263,7 @@ static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float 
     }
     float F[3];
     /* 3.x evaluates its Fresnel at dot(L, H), 4.x at dot(V, H): equal for reflection. */
-    lobe_fresnel(l, v3_dot(H, cl->V), F);
+    lobe_fresnel(l, f3_dot(H, cl->V), F);
     for (int c = 0; c < 3; c++)
         f[c] = F[c] * common * G;
     *pdf = common * G1v;
@@ -308,12 +271,12 @@ static void microfacet_formula(const closures *cl, const lobe *l, vec3 L, float 
 
 /* f * |cos| (without weight) and pdf of a microfacet lobe over its own hemisphere, as
  * if the geometric surface did not cut it; 0 if invalid or singular. */
-static void microfacet_eval_uncut(const closures *cl, const lobe *l, vec3 L, float f[3],
+static void microfacet_eval_uncut(const closures *cl, const lobe *l, float3 L, float f[3],
                                   float *pdf)
 {
     f[0] = f[1] = f[2] = 0.0f;
     *pdf = 0.0f;
-    float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
+    float cos_nv = f3_dot(l->N, cl->V), cos_nl = f3_dot(l->N, L);
     if (l->singular || cos_nv <= 0.0f || cos_nl <= 0.0f)
         return;
     microfacet_formula(cl, l, L, cos_nv, cos_nl, f, pdf);
@@ -327,21 +290,21 @@ static void microfacet_eval_uncut(const closures *cl, const lobe *l, vec3 L, flo
  * the world's contribution there, as Cycles does not light-sample a uniform world; a
  * render that dropped it was 0.75% dark in its world term on supershader_s4. Equal to
  * microfacet_eval_uncut where cos_nl > 0. */
-static void microfacet_sampled_value(const closures *cl, const lobe *l, vec3 L, float f[3],
+static void microfacet_sampled_value(const closures *cl, const lobe *l, float3 L, float f[3],
                                      float *pdf)
 {
     f[0] = f[1] = f[2] = 0.0f;
     *pdf = 0.0f;
-    float cos_nv = v3_dot(l->N, cl->V), cos_nl = v3_dot(l->N, L);
+    float cos_nv = f3_dot(l->N, cl->V), cos_nl = f3_dot(l->N, L);
     if (l->singular || cos_nv <= 0.0f || cos_nl == 0.0f)
         return;
     microfacet_formula(cl, l, L, cos_nv, cos_nl, f, pdf);
 }
 
 /* The same, zero below Ng: the lobe as the BSDF has it. */
-static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3], float *pdf)
+static void microfacet_eval(const closures *cl, const lobe *l, float3 L, float f[3], float *pdf)
 {
-    if (v3_dot(cl->Ng, L) <= 0.0f) {
+    if (f3_dot(cl->Ng, L) <= 0.0f) {
         f[0] = f[1] = f[2] = 0.0f;
         *pdf = 0.0f;
         return;
@@ -351,64 +314,64 @@ static void microfacet_eval(const closures *cl, const lobe *l, vec3 L, float f[3
 
 /* Density with which microfacet_sample_direction() produces L, wherever L is (also below
  * the lobe's hemisphere, where the lobe is zero): D G1(V) / (4 cos_nv). */
-static float microfacet_sample_pdf(const closures *cl, const lobe *l, vec3 L)
+static float microfacet_sample_pdf(const closures *cl, const lobe *l, float3 L)
 {
-    float cos_nv = v3_dot(l->N, cl->V);
+    float cos_nv = f3_dot(l->N, cl->V);
     if (l->singular || cos_nv <= 0.0f)
         return 0.0f;
-    vec3 H = v3_normalize_or(v3_add(cl->V, L), l->N);
-    if (v3_dot(H, cl->V) <= 0.0f)
+    float3 H = v3_normalize_or(f3_add(cl->V, L), l->N);
+    if (f3_dot(H, cl->V) <= 0.0f)
         return 0.0f;
     float alpha2 = l->alpha * l->alpha;
     float lv = ggx_lambda(alpha2, cos_nv);
-    return ggx_D(alpha2, v3_dot(l->N, H)) * 0.25f / cos_nv / (1.0f + lv);
+    return ggx_D(alpha2, f3_dot(l->N, H)) * 0.25f / cos_nv / (1.0f + lv);
 }
 
 /* A microfacet lobe's sampled direction (the view mirrored about a visible normal),
  * wherever it points; false only if the lobe cannot be sampled for this view. */
 static bool microfacet_sample_direction(const closures *cl, const lobe *l, float u1, float u2,
-                                        vec3 *L)
+                                        float3 *L)
 {
-    float cos_nv = v3_dot(l->N, cl->V);
+    float cos_nv = f3_dot(l->N, cl->V);
     if (cos_nv <= 0.0f)
         return false;
-    vec3 H;
+    float3 H;
     if (l->singular) {
         H = l->N;
     } else {
-        vec3 t, b;
+        float3 t, b;
         tangent_frame(l->N, &t, &b);
-        vec3 v = v3(v3_dot(t, cl->V), v3_dot(b, cl->V), cos_nv);
-        vec3 h = ggx_sample_visible_normal(v, l->alpha, u1, u2);
-        H = v3_add(v3_add(v3_scale(t, h.x), v3_scale(b, h.y)), v3_scale(l->N, h.z));
+        float3 v = make_float3(f3_dot(t, cl->V), f3_dot(b, cl->V), cos_nv);
+        float3 h = ggx_sample_visible_normal(v, l->alpha, u1, u2);
+        H = f3_add(f3_add(f3_scale(t, h.x), f3_scale(b, h.y)), f3_scale(l->N, h.z));
     }
-    float cos_hv = v3_dot(H, cl->V);
-    *L = v3_sub(v3_scale(H, 2.0f * cos_hv), cl->V);
+    float cos_hv = f3_dot(H, cl->V);
+    *L = f3_sub(f3_scale(H, 2.0f * cos_hv), cl->V);
     return true;
 }
 
 /* Whether direction L lies below the hemisphere of lobe i, a microfacet lobe with a
  * density: for a direction above Ng, the sampler-only region (microfacet_sampled_value). */
-static bool below_lobe_hemisphere(const closures *cl, int i, vec3 L)
+static bool below_lobe_hemisphere(const closures *cl, int i, float3 L)
 {
     const lobe *l = &cl->lobe[i];
-    return i != LOBE_DIFFUSE && l->active && !l->singular && !(v3_dot(l->N, L) > 0.0f);
+    return i != LOBE_DIFFUSE && l->active && !l->singular && !(f3_dot(l->N, L) > 0.0f);
 }
 
 /* Samples a microfacet lobe's direction; false if none. As in Cycles, only a reflection
  * below the geometric surface is rejected, not one below the lobe's own hemisphere (see
  * microfacet_sampled_value). */
-static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, vec3 *L)
+static bool microfacet_sample(const closures *cl, const lobe *l, float u1, float u2, float3 *L)
 {
-    return microfacet_sample_direction(cl, l, u1, u2, L) && v3_dot(cl->Ng, *L) > 0.0f;
+    return microfacet_sample_direction(cl, l, u1, u2, L) && f3_dot(cl->Ng, *L) > 0.0f;
 }
 
 /* f * cos (without weight) and pdf of the diffuse lobe over its own hemisphere, without
  * the geometric surface's cut and without the bump shadowing term. */
-static void diffuse_eval_uncut(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
+static void diffuse_eval_uncut(const closures *cl, const lobe *l, float3 L, float *f, float *pdf)
 {
     *f = *pdf = 0.0f;
-    float cos_nl = v3_dot(l->N, L);
+    float cos_nl = f3_dot(l->N, L);
     if (cos_nl <= 0.0f)
         return;
     *pdf = cos_nl / PI_F;
@@ -416,19 +379,19 @@ static void diffuse_eval_uncut(const closures *cl, const lobe *l, vec3 L, float 
     if (cl->blender == 3) {
         /* Disney diffuse: Lambert with Schlick-shaped entry and exit, plus retro-reflection
          * growing with roughness. */
-        float cos_nv = v3_dot(l->N, cl->V);
-        float m_v = saturate(1.0f - cos_nv), m_l = saturate(1.0f - cos_nl);
+        float cos_nv = f3_dot(l->N, cl->V);
+        float m_v = saturatef(1.0f - cos_nv), m_l = saturatef(1.0f - cos_nl);
         float FV = sqr(sqr(m_v)) * m_v, FL = sqr(sqr(m_l)) * m_l;
-        float RR = cl->diffuse_roughness * (v3_dot(L, cl->V) + 1.0f);
+        float RR = cl->diffuse_roughness * (f3_dot(L, cl->V) + 1.0f);
         shape = (1.0f - 0.5f * FV) * (1.0f - 0.5f * FL) + RR * (FL + FV + FL * FV * (RR - 1.0f));
     }
     *f = *pdf * shape;
 }
 
 /* f * cos (without weight) and pdf of the diffuse lobe. */
-static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, float *pdf)
+static void diffuse_eval(const closures *cl, const lobe *l, float3 L, float *f, float *pdf)
 {
-    if (v3_dot(cl->Ng, L) <= 0.0f) {
+    if (f3_dot(cl->Ng, L) <= 0.0f) {
         *f = *pdf = 0.0f;
         return;
     }
@@ -438,17 +401,17 @@ static void diffuse_eval(const closures *cl, const lobe *l, vec3 L, float *f, fl
 }
 
 /* Cosine-weighted direction about the diffuse lobe's normal (pdf cos_nl / pi). */
-static vec3 diffuse_sample_direction(const lobe *l, float u1, float u2)
+static float3 diffuse_sample_direction(const lobe *l, float u1, float u2)
 {
-    vec3 t, b;
+    float3 t, b;
     tangent_frame(l->N, &t, &b);
     float r = sqrtf(u1), phi = 2.0f * PI_F * u2;
-    return v3_add(v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))),
-                  v3_scale(l->N, safe_sqrt(1.0f - u1)));
+    return f3_add(f3_add(f3_scale(t, r * cosf(phi)), f3_scale(b, r * sinf(phi))),
+                  f3_scale(l->N, safe_sqrtf(1.0f - u1)));
 }
 
 /* Sum over lobes of weight * f_cos, and the mixture pdf. */
-static void closures_eval(const closures *cl, vec3 L, float f_cos[3], float *pdf)
+static void closures_eval(const closures *cl, float3 L, float f_cos[3], float *pdf)
 {
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
     *pdf = 0.0f;
@@ -540,10 +503,10 @@ static void set_probabilities(closures *cl, const float estimate[N_LOBES])
     }
 }
 
-static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
+static void setup_4x(closures *cl, const principled_inputs *in, float3 N)
 {
-    float metallic = saturate(in->metallic);
-    float roughness = saturate(in->roughness);
+    float metallic = saturatef(in->metallic);
+    float roughness = saturatef(in->roughness);
     float level = fmaxf(in->specular_ior_level, 0.0f);
     float ior = fmaxf(in->ior, 1e-5f);
     float tint[3], base[3];
@@ -551,8 +514,8 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
         tint[c] = fmaxf(in->specular_tint[c], 0.0f);
         base[c] = fmaxf(in->base_color[c], 0.0f);
     }
-    vec3 N_spec = valid_specular_normal_4x(cl->Ng, cl->V, N);
-    float mu = v3_dot(cl->V, N_spec);
+    float3 N_spec = valid_specular_normal_4x(cl->Ng, cl->V, N);
+    float mu = f3_dot(cl->V, N_spec);
     float estimate[N_LOBES] = {0};
     float weight = 1.0f;  /* Alpha is the caller's: see bsdf_principled.h. */
 
@@ -570,8 +533,8 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
         for (int c = 0; c < 3; c++) {
             m->f0[c] = fminf(base[c], 1.0f);
             float f82 = fminf(tint[c], 1.0f);
-            m->b[c] = mixf(m->f0[c], 1.0f, f5) * (7.0f / (f5 * f)) * (1.0f - f82);
-            Fss[c] = mixf(m->f0[c], 1.0f, 1.0f / 21.0f) - m->b[c] * (1.0f / 126.0f);
+            m->b[c] = mix(m->f0[c], 1.0f, f5) * (7.0f / (f5 * f)) * (1.0f - f82);
+            Fss[c] = mix(m->f0[c], 1.0f, 1.0f / 21.0f) - m->b[c] * (1.0f / 126.0f);
         }
         float comp[3], alb[3];
         energy_compensation(roughness, mu, Fss, comp);
@@ -606,11 +569,11 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
                              ? 0.997118f + eta * (0.1014f - eta * (0.965241f + eta * 0.130607f))
                              : (eta - 1.0f) / (4.08567f + 1.00071f * eta);
         float real_F0 = F0_from_ior(eta);
-        float s_avg = saturate((real_Fss - real_F0) / (1.0f - real_F0));
+        float s_avg = saturatef((real_Fss - real_F0) / (1.0f - real_F0));
         float Fss[3];
         for (int c = 0; c < 3; c++) {
-            s->f0[c] = saturate(f0 * tint[c]);
-            Fss[c] = mixf(s->f0[c], 1.0f, s_avg);
+            s->f0[c] = saturatef(f0 * tint[c]);
+            Fss[c] = mix(s->f0[c], 1.0f, s_avg);
         }
         float comp[3];
         energy_compensation(roughness, mu, Fss, comp);
@@ -626,11 +589,11 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
         microfacet_albedo_4x(s, roughness, mu, alb);
         for (int c = 0; c < 3; c++) {
             s->weight[c] = weight * comp[c];
-            layer_max = fmaxf(layer_max, E * comp[c] * mixf(s->f0[c], 1.0f, s_tab));
+            layer_max = fmaxf(layer_max, E * comp[c] * mix(s->f0[c], 1.0f, s_tab));
             alb[c] *= s->weight[c];
         }
         estimate[LOBE_SPECULAR] = average3(alb);
-        weight *= saturate(1.0f - layer_max);
+        weight *= saturatef(1.0f - layer_max);
     }
 
     lobe *d = &cl->lobe[LOBE_DIFFUSE];
@@ -644,7 +607,7 @@ static void setup_4x(closures *cl, const principled_inputs *in, vec3 N)
     set_probabilities(cl, estimate);
 }
 
-static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
+static void setup_3x(closures *cl, const principled_inputs *in, float3 N)
 {
     float metallic = in->metallic;
     float roughness = in->roughness;
@@ -654,7 +617,7 @@ static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
     N = valid_reflection_normal_3x(cl->Ng, cl->V, N);
     float weight = 1.0f;  /* Alpha is the caller's: see bsdf_principled.h. */
 
-    float diffuse_weight = 1.0f - saturate(metallic);
+    float diffuse_weight = 1.0f - saturatef(metallic);
     lobe *d = &cl->lobe[LOBE_DIFFUSE];
     if (fabsf(average3(in->base_color)) > CLOSURE_WEIGHT_CUTOFF &&
         diffuse_weight > CLOSURE_WEIGHT_CUTOFF) {
@@ -670,21 +633,21 @@ static void setup_3x(closures *cl, const principled_inputs *in, vec3 N)
     if (specular > CLOSURE_WEIGHT_CUTOFF || metallic > CLOSURE_WEIGHT_CUTOFF) {
         s->active = true;
         s->N = N;
-        s->alpha = saturate(roughness * roughness);
+        s->alpha = saturatef(roughness * roughness);
         s->singular = s->alpha * s->alpha <= 1e-7f;
         s->fresnel = FRESNEL_CSPEC0_3X;
-        s->eta = 2.0f / (1.0f - safe_sqrt(0.08f * specular)) - 1.0f;
+        s->eta = 2.0f / (1.0f - safe_sqrtf(0.08f * specular)) - 1.0f;
         const float *bc = in->base_color;
         float lum = 0.3f * bc[0] + 0.6f * bc[1] + 0.1f * bc[2];
         for (int c = 0; c < 3; c++) {
             float tinted = lum > 0.0f ? bc[c] / lum : 1.0f;
             float tmp = 1.0f - specular_tint + tinted * specular_tint;
-            s->f0[c] = saturate(specular * 0.08f * tmp * (1.0f - metallic) + bc[c] * metallic);
+            s->f0[c] = saturatef(specular * 0.08f * tmp * (1.0f - metallic) + bc[c] * metallic);
             s->weight[c] = weight;
         }
         /* Cycles' sample weight: the Fresnel colour at the view angle. */
         float F[3];
-        lobe_fresnel(s, v3_dot(cl->V, N), F);
+        lobe_fresnel(s, f3_dot(cl->V, N), F);
         estimate[LOBE_SPECULAR] = weight * average3(F);
     }
     set_probabilities(cl, estimate);
@@ -713,14 +676,14 @@ int principled_prepare(const principled_inputs *in, int blender, const float wo[
     cl->blender = blender == 3 ? 3 : 4;
     cl->V = v3_load(wo);
     cl->Ng = v3_load(Ng);
-    if (v3_dot(cl->V, cl->Ng) <= 0.0f)
+    if (f3_dot(cl->V, cl->Ng) <= 0.0f)
         return 0;
-    vec3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
+    float3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
     if (cl->blender == 3)
         setup_3x(cl, in, N);
     else
         setup_4x(cl, in, N);
-    cl->roughness = cl->blender == 3 ? in->roughness : saturate(in->roughness);
+    cl->roughness = cl->blender == 3 ? in->roughness : saturatef(in->roughness);
     for (int i = 0; i < N_LOBES; i++)
         if (cl->lobe[i].active && !v3_equal(cl->lobe[i].N, cl->Ng))
             cl->bumped = 1;
@@ -737,7 +700,7 @@ void principled_closure_sample_direction(const closures *cl, const float u[3],
 {
     s->lobe = -1;
     s->raw_ok = s->usable = 0;
-    s->raw = v3(0.0f, 0.0f, 0.0f);
+    s->raw = make_float3(0.0f, 0.0f, 0.0f);
     /* Pick a lobe by u[2]. */
     int pick = -1;
     float acc = 0.0f;
@@ -753,14 +716,14 @@ void principled_closure_sample_direction(const closures *cl, const float u[3],
         return;
     const lobe *l = &cl->lobe[pick];
     s->lobe = pick;
-    vec3 L;
+    float3 L;
     if (pick == LOBE_DIFFUSE) {
         L = diffuse_sample_direction(l, u[0], u[1]);
         s->raw_ok = 1;
-        s->usable = v3_dot(cl->Ng, L) > 0.0f && safe_sqrt(1.0f - u[0]) > 0.0f;
+        s->usable = f3_dot(cl->Ng, L) > 0.0f && safe_sqrtf(1.0f - u[0]) > 0.0f;
     } else {
         s->raw_ok = microfacet_sample_direction(cl, l, u[0], u[1], &L);
-        s->usable = s->raw_ok && v3_dot(cl->Ng, L) > 0.0f;
+        s->usable = s->raw_ok && f3_dot(cl->Ng, L) > 0.0f;
     }
     if (s->raw_ok)
         s->raw = L;
@@ -787,7 +750,7 @@ void principled_closure_sampled_eval(const closures *cl, const principled_sample
     if (l->singular) {
         /* A delta lobe: its own term, scaled as Cycles does, on top of the others. */
         float F[3];
-        lobe_fresnel(l, v3_dot(l->N, cl->V), F);
+        lobe_fresnel(l, f3_dot(l->N, cl->V), F);
         for (int c = 0; c < 3; c++)
             f_cos[c] += SINGULAR_SCALE * l->weight[c] * F[c];
         *pdf += SINGULAR_SCALE * l->prob;
@@ -837,7 +800,7 @@ static bool lobe_ratio(const closures *cl, int i, int also, float u1, float u2, 
                        float r2[3])
 {
     const lobe *l = &cl->lobe[i];
-    vec3 L;
+    float3 L;
     float f[3], p;
     r[0] = r[1] = r[2] = 0.0f;
     r2[0] = r2[1] = r2[2] = 0.0f;
@@ -849,10 +812,10 @@ static bool lobe_ratio(const closures *cl, int i, int also, float u1, float u2, 
         if (!microfacet_sample(cl, l, u1, u2, &L))
             return false;
         if (l->singular) {
-            lobe_fresnel(l, v3_dot(l->N, cl->V), f);
+            lobe_fresnel(l, f3_dot(l->N, cl->V), f);
             p = 1.0f;
             if (also >= 0)
-                lobe_fresnel(&cl->lobe[also], v3_dot(l->N, cl->V), r2);
+                lobe_fresnel(&cl->lobe[also], f3_dot(l->N, cl->V), r2);
         } else {
             /* microfacet_sample keeps L above Ng; the value is the sampler's. */
             microfacet_sampled_value(cl, l, L, f, &p);
@@ -947,21 +910,21 @@ static void lobe_albedo_quadrature(const closures *cl, int i, int also, float al
 static void lobe_albedo_uncut(const closures *cl, int i, float alb[3])
 {
     const lobe *l = &cl->lobe[i];
-    float mu = v3_dot(cl->V, l->N);
+    float mu = f3_dot(cl->V, l->N);
     if (i == LOBE_DIFFUSE) {
         float d = 1.0f;
         if (cl->blender == 3) {
             d = diffuse_albedo_3x(cl->diffuse_roughness, mu);
         } else if (!v3_equal(l->N, cl->Ng)) {
             /* Lambert under the bump shadowing term depends on the tilt only. */
-            float tilt = acosf(fminf(fmaxf(v3_dot(l->N, cl->Ng), -1.0f), 1.0f));
+            float tilt = acosf(fminf(fmaxf(f3_dot(l->N, cl->Ng), -1.0f), 1.0f));
             d = microfacet_table_1d(microfacet_bump_lambert, tilt / (0.5f * PI_F), 65);
         }
         alb[0] = alb[1] = alb[2] = d;
     } else if (l->singular) {
         lobe_fresnel(l, mu, alb);
-        vec3 R = v3_sub(v3_scale(l->N, 2.0f * mu), cl->V);
-        if (!(v3_dot(cl->Ng, R) > 0.0f && v3_dot(l->N, R) > 0.0f))
+        float3 R = f3_sub(f3_scale(l->N, 2.0f * mu), cl->V);
+        if (!(f3_dot(cl->Ng, R) > 0.0f && f3_dot(l->N, R) > 0.0f))
             alb[0] = alb[1] = alb[2] = 0.0f;
     } else if (cl->blender == 3) {
         microfacet_albedo_3x(l, cl->roughness, mu, alb);
@@ -1052,7 +1015,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
     }
     if (pick < 0)
         return;
-    vec3 L;
+    float3 L;
     if (sampled && sampled->lobe == pick) {
         /* The same lobe at the same (u[0], u[1]): the same direction. */
         if (!sampled->raw_ok)
@@ -1068,7 +1031,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
      * tables' integrands, and 4.x's diffuse is exact in its table. Most samples end
      * here. Above Ng but below the lobes' hemisphere Cycles' sampler still counts the
      * microfacet value (microfacet_sampled_value), which the tables leave out. */
-    const bool above = v3_dot(cl->Ng, L) > 0.0f;
+    const bool above = f3_dot(cl->Ng, L) > 0.0f;
     const bool diffuse_3x = cl->blender == 3 && cl->lobe[LOBE_DIFFUSE].active;
     bool sampler_only = false;
     for (int i = 0; above && i < N_LOBES; i++)
@@ -1081,7 +1044,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
         const lobe *l = &cl->lobe[i];
         if (!l->active || l->singular)
             continue;
-        float p = i == LOBE_DIFFUSE ? fmaxf(v3_dot(l->N, L), 0.0f) / PI_F
+        float p = i == LOBE_DIFFUSE ? fmaxf(f3_dot(l->N, L), 0.0f) / PI_F
                                     : microfacet_sample_pdf(cl, l, L);
         q += l->prob / total * p;
     }

@@ -30,6 +30,8 @@
 #ifndef IMSYNTH_RENDER_BSDF_PRINCIPLED_H
 #define IMSYNTH_RENDER_BSDF_PRINCIPLED_H
 
+#include "shadergraph/kernel_math.h"
+
 typedef struct principled_inputs {
     float base_color[3];
     float metallic;
@@ -67,9 +69,8 @@ void principled_albedo(const principled_inputs *in, int blender, const float wo[
  * one shading point several times prepares it once and uses the principled_closure_*
  * functions, which give the same results bit for bit. */
 
-typedef struct principled_vec3 {
-    float x, y, z;
-} principled_vec3;
+/* The kernels' float3 (shadergraph/kernel_math.h). */
+typedef float3 principled_vec3;
 
 /* One closure of the BSDF (Cycles' term): diffuse, dielectric specular or metal. */
 typedef struct principled_lobe {

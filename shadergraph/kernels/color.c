@@ -40,15 +40,14 @@ enum {
     BLEND_SATURATION, BLEND_COLOR, BLEND_VALUE
 };
 
-/* a + t (b - a), Cycles' interp(). */
-static inline float lerpf(float a, float b, float t) { return a + t * (b - a); }
+/* Cycles' interp() of float3s: its SSE operators round the product (mix, not mix_fused). */
 static inline float3 lerp3(float3 a, float3 b, float t)
 {
-    return make_float3(lerpf(a.x, b.x, t), lerpf(a.y, b.y, t), lerpf(a.z, b.z, t));
+    return make_float3(mix(a.x, b.x, t), mix(a.y, b.y, t), mix(a.z, b.z, t));
 }
 static inline float3 saturate3(float3 a)
 {
-    return make_float3(cy_saturatef(a.x), cy_saturatef(a.y), cy_saturatef(a.z));
+    return make_float3(saturatef(a.x), saturatef(a.y), saturatef(a.z));
 }
 
 static inline float overlay1(float t, float a, float b)
@@ -123,17 +122,17 @@ static inline float3 blend_exclusion(float t, float3 a, float3 b)
     float3 e = make_float3(a.x + b.x - 2.0f * a.x * b.x, a.y + b.y - 2.0f * a.y * b.y,
                            a.z + b.z - 2.0f * a.z * b.z);
     float3 r = lerp3(a, e, t);
-    return make_float3(cy_maxf(r.x, 0.0f), cy_maxf(r.y, 0.0f), cy_maxf(r.z, 0.0f));
+    return make_float3(maxf(r.x, 0.0f), maxf(r.y, 0.0f), maxf(r.z, 0.0f));
 }
 
 static inline float3 blend_darken(float t, float3 a, float3 b)
 {
-    return lerp3(a, make_float3(cy_minf(a.x, b.x), cy_minf(a.y, b.y), cy_minf(a.z, b.z)), t);
+    return lerp3(a, make_float3(minf(a.x, b.x), minf(a.y, b.y), minf(a.z, b.z)), t);
 }
 
 static inline float3 blend_lighten(float t, float3 a, float3 b)
 {
-    return lerp3(a, make_float3(cy_maxf(a.x, b.x), cy_maxf(a.y, b.y), cy_maxf(a.z, b.z)), t);
+    return lerp3(a, make_float3(maxf(a.x, b.x), maxf(a.y, b.y), maxf(a.z, b.z)), t);
 }
 
 static inline float3 blend_dodge(float t, float3 a, float3 b)
@@ -209,7 +208,7 @@ static void blend_batch(int blend, int n, const float *fac, bool clamp_factor, c
 {
 #define BLEND_LOOP(fn)                                                                     \
     for (int i = 0; i < n; i++) {                                                          \
-        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];                           \
+        float t = clamp_factor ? saturatef(fac[i]) : fac[i];                               \
         float3 r = fn(t, f3_load(ca, n, i), f3_load(cb, n, i));                            \
         f3_store(out, n, i, clamp_result ? saturate3(r) : r);                              \
     }                                                                                      \
@@ -263,7 +262,7 @@ static void mix_float(const sg_kernel_args *a, bool clamp_factor)
     const float *fac = a->in[MIX_IN_FACTOR_FLOAT];
     const float *x = a->in[MIX_IN_A_FLOAT], *y = a->in[MIX_IN_B_FLOAT];
     for (int i = 0; i < a->n; i++) {
-        float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
+        float t = clamp_factor ? saturatef(fac[i]) : fac[i];
         out[i] = x[i] * (1.0f - t) + y[i] * t;
     }
 }
@@ -283,7 +282,7 @@ static void mix_vector(const sg_kernel_args *a, bool clamp_factor, bool non_unif
         const float *xc = x + (size_t)c * (size_t)n, *yc = y + (size_t)c * (size_t)n;
         float *oc = out + (size_t)c * (size_t)n;
         for (int i = 0; i < n; i++) {
-            float t = clamp_factor ? cy_saturatef(fac[i]) : fac[i];
+            float t = clamp_factor ? saturatef(fac[i]) : fac[i];
             oc[i] = xc[i] * (1.0f - t) + yc[i] * t;
         }
     }
@@ -696,7 +695,7 @@ static void ramp_evaluate(const sg_color_ramp *ramp, float in, int a, float out[
 static void ramp_lookup(const float (*table)[4], int size, bool interpolate, float f,
                         float out[4])
 {
-    f = cy_saturatef(f) * (float)(size - 1);
+    f = saturatef(f) * (float)(size - 1);
     int i = (int)f;
     /* NaN: the conversion above is undefined behaviour in C, so test first. */
     if (!(f >= 0.0f))

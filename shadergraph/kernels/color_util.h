@@ -15,15 +15,10 @@
 
 #include "shadergraph/kernels/kernel_util.h"
 
-/* Cycles' scalar min/max: plain comparisons, so NaN handling follows the operand order. */
-static inline float cy_minf(float a, float b) { return (a < b) ? a : b; }
-static inline float cy_maxf(float a, float b) { return (a > b) ? a : b; }
-static inline float cy_saturatef(float a) { return cy_minf(cy_maxf(a, 0.0f), 1.0f); }
-
 static inline float3 rgb_to_hsv(float3 rgb)
 {
     float cmax = fmaxf(rgb.x, fmaxf(rgb.y, rgb.z));
-    float cmin = cy_minf(rgb.x, cy_minf(rgb.y, rgb.z));
+    float cmin = minf(rgb.x, minf(rgb.y, rgb.z));
     float cdelta = cmax - cmin;
     float h = 0.0f, s = 0.0f, v = cmax;
 
@@ -76,8 +71,8 @@ static inline float3 hsv_to_rgb(float3 hsv)
 static inline float3 rgb_to_hsl(float3 rgb)
 {
     float cmax = fmaxf(rgb.x, fmaxf(rgb.y, rgb.z));
-    float cmin = cy_minf(rgb.x, cy_minf(rgb.y, rgb.z));
-    float l = cy_minf(1.0f, (cmax + cmin) / 2.0f);
+    float cmin = minf(rgb.x, minf(rgb.y, rgb.z));
+    float l = minf(1.0f, (cmax + cmin) / 2.0f);
     float h = 0.0f, s = 0.0f;
 
     if (cmax != cmin) {
@@ -97,9 +92,9 @@ static inline float3 rgb_to_hsl(float3 rgb)
 static inline float3 hsl_to_rgb(float3 hsl)
 {
     float h = hsl.x, s = hsl.y, l = hsl.z;
-    float nr = cy_saturatef(fabsf(h * 6.0f - 3.0f) - 1.0f);
-    float ng = cy_saturatef(2.0f - fabsf(h * 6.0f - 2.0f));
-    float nb = cy_saturatef(2.0f - fabsf(h * 6.0f - 4.0f));
+    float nr = saturatef(fabsf(h * 6.0f - 3.0f) - 1.0f);
+    float ng = saturatef(2.0f - fabsf(h * 6.0f - 2.0f));
+    float nb = saturatef(2.0f - fabsf(h * 6.0f - 4.0f));
     float chroma = (1.0f - fabsf(2.0f * l - 1.0f)) * s;
     return make_float3((nr - 0.5f) * chroma + l, (ng - 0.5f) * chroma + l, (nb - 0.5f) * chroma + l);
 }

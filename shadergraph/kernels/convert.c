@@ -205,18 +205,10 @@ static float3 rotate_inverse(const rotation3 *r, float3 v)
     return f3_add(f3_add(x, y), z);
 }
 
-/* Component-wise a / b, 0 where b is 0 (Cycles' safe_divide). */
+/* Component-wise a / b, 0 where b is 0 (Cycles' safe_divide of float3s). */
 static float3 safe_divide3(float3 a, float3 b)
 {
-    return make_float3(b.x != 0.0f ? a.x / b.x : 0.0f, b.y != 0.0f ? a.y / b.y : 0.0f,
-                       b.z != 0.0f ? a.z / b.z : 0.0f);
-}
-
-/* a / |a|, or a itself when it has no length (Cycles' safe_normalize). */
-static float3 safe_normalize3(float3 a)
-{
-    float len = f3_length(a);
-    return len != 0.0f ? f3_scale(a, 1.0f / len) : a;
+    return make_float3(safe_divide(a.x, b.x), safe_divide(a.y, b.y), safe_divide(a.z, b.z));
 }
 
 static float3 svm_mapping(int type, const rotation3 *r, float3 v, float3 location, float3 scale)
@@ -229,7 +221,7 @@ static float3 svm_mapping(int type, const rotation3 *r, float3 v, float3 locatio
     case MAPPING_VECTOR:
         return rotate(r, f3_mul(v, scale));
     case MAPPING_NORMAL:
-        return safe_normalize3(rotate(r, safe_divide3(v, scale)));
+        return safe_normalize(rotate(r, safe_divide3(v, scale)));
     default:
         return make_float3(0.0f, 0.0f, 0.0f);
     }

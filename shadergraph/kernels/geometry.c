@@ -91,65 +91,6 @@ static const sg_socket_def bump_in[] = {
 static const sg_socket_def bump_out[] = {{"Normal", "Normal", SG_SOCKET_VECTOR, {0}}};
 static const sg_prop_def bump_props[] = {{"invert", SG_PROP_BOOL, NULL, 0}};
 
-static float signf_cycles(float f) { return f < 0.0f ? -1.0f : 1.0f; }
-
-static float3 normalize_div(float3 a)
-{
-    float l = f3_length(a);
-    return make_float3(a.x / l, a.y / l, a.z / l);
-}
-
-static float3 safe_normalize(float3 a)
-{
-    float t = f3_length(a);
-    return t != 0.0f ? f3_scale(a, 1.0f / t) : a;
-}
-
-static float safe_sqrt(float f) { return sqrtf(fmaxf(f, 0.0f)); }
-
-/* Blender 3.x clamps a bumped normal so that the view ray's mirror reflection stays
- * above the surface: N is rotated towards Ng just enough that dot(Ng, R) reaches a
- * small threshold. (4.x dropped this from Bump.) Solving for the rotated normal in the
- * plane of N and Ng gives up to two candidates; prefer the one whose reflection is
- * valid and shallower. */
-static float3 ensure_valid_reflection(float3 Ng, float3 I, float3 N)
-{
-    float3 R = f3_sub(f3_scale(N, 2.0f * f3_dot(N, I)), I);
-    float threshold = fminf(0.9f * f3_dot(Ng, I), 0.01f);
-    if (f3_dot(Ng, R) >= threshold)
-        return N;
-    float NdotNg = f3_dot(N, Ng);
-    float3 X = normalize_div(f3_sub(N, f3_scale(Ng, NdotNg)));
-    float Ix = f3_dot(I, X), Iz = f3_dot(I, Ng);
-    float Ix2 = Ix * Ix, Iz2 = Iz * Iz;
-    float a = Ix2 + Iz2;
-    float b = safe_sqrt(Ix2 * (a - threshold * threshold));
-    float c = Iz * threshold + a;
-    float fac = 0.5f / a;
-    float N1_z2 = fac * (b + c), N2_z2 = fac * (-b + c);
-    bool valid1 = N1_z2 > 1e-5f && N1_z2 <= 1.0f + 1e-5f;
-    bool valid2 = N2_z2 > 1e-5f && N2_z2 <= 1.0f + 1e-5f;
-    float nx, nz;
-    if (valid1 && valid2) {
-        float n1x = safe_sqrt(1.0f - N1_z2), n1z = safe_sqrt(N1_z2);
-        float n2x = safe_sqrt(1.0f - N2_z2), n2z = safe_sqrt(N2_z2);
-        float R1 = 2 * (n1x * Ix + n1z * Iz) * n1z - Iz;
-        float R2 = 2 * (n2x * Ix + n2z * Iz) * n2z - Iz;
-        valid1 = R1 >= 1e-5f;
-        valid2 = R2 >= 1e-5f;
-        bool pick1 = (valid1 && valid2) ? (R1 < R2) : (R1 > R2);
-        nx = pick1 ? n1x : n2x;
-        nz = pick1 ? n1z : n2z;
-    } else if (valid1 || valid2) {
-        float z2 = valid1 ? N1_z2 : N2_z2;
-        nx = safe_sqrt(1.0f - z2);
-        nz = safe_sqrt(z2);
-    } else {
-        return Ng;
-    }
-    return f3_add(f3_scale(X, nx), f3_scale(Ng, nz));
-}
-
 static float3 bump_normal(float3 normal_in, float3 dPdx, float3 dPdy, float h_c, float h_x,
                           float h_y, float strength, float scale)
 {
@@ -160,10 +101,10 @@ static float3 bump_normal(float3 normal_in, float3 dPdx, float3 dPdy, float h_c,
     float absdet = fabsf(det);
     strength = fmaxf(strength, 0.0f);
     float3 out = safe_normalize(f3_sub(f3_scale(normal_in, absdet),
-                                       f3_scale(surfgrad, scale * signf_cycles(det))));
+                                       f3_scale(surfgrad, scale * signf(det))));
     if (out.x == 0.0f && out.y == 0.0f && out.z == 0.0f)
         return normal_in;
-    return normalize_div(f3_add(f3_scale(out, strength), f3_scale(normal_in, 1.0f - strength)));
+    return normalize(f3_add(f3_scale(out, strength), f3_scale(normal_in, 1.0f - strength)));
 }
 
 static void bump_kernel(const sg_kernel_args *a)

@@ -1,6 +1,7 @@
 /*
- * Small float3 helpers and Blender's hash functions, shared by the node kernels.
- * Internal to shadergraph. Everything is static inline and pure.
+ * Planar float3 access and Blender's hash functions, shared by the node kernels (the
+ * float3 type and Cycles' math helpers are shadergraph/kernel_math.h). Internal to
+ * shadergraph. Everything is static inline and pure.
  *
  * The hashes are Bob Jenkins' lookup3 final mix, seeded as Cycles seeds them, so that
  * noise and Voronoi cells land exactly where Blender puts them. Float inputs are hashed
@@ -13,25 +14,7 @@
 #include <stdint.h>
 #include <string.h>
 
-typedef struct float3 {
-    float x, y, z;
-} float3;
-
-static inline float3 make_float3(float x, float y, float z)
-{
-    float3 r = {x, y, z};
-    return r;
-}
-static inline float3 f3_add(float3 a, float3 b) { return make_float3(a.x + b.x, a.y + b.y, a.z + b.z); }
-static inline float3 f3_sub(float3 a, float3 b) { return make_float3(a.x - b.x, a.y - b.y, a.z - b.z); }
-static inline float3 f3_mul(float3 a, float3 b) { return make_float3(a.x * b.x, a.y * b.y, a.z * b.z); }
-static inline float3 f3_scale(float3 a, float s) { return make_float3(a.x * s, a.y * s, a.z * s); }
-static inline float f3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static inline float3 f3_cross(float3 a, float3 b)
-{
-    return make_float3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-static inline float f3_length(float3 a) { return sqrtf(f3_dot(a, a)); }
+#include "shadergraph/kernel_math.h"
 
 /* Read/write point i of a planar vector array of n points. */
 static inline float3 f3_load(const float *v, int n, int i)

@@ -46,9 +46,8 @@
 
 #define PI_F 3.14159265358979323846f /* Cycles' M_PI_F */
 
-/* a * b + c where the AVX2 kernel fuses it. */
-static inline float madd(float a, float b, float c) { return fmaf(a, b, c); }
-/* c - a * b, fused (GCC's fnmadd). */
+/* madd(a, b, c) (kernel_math.h): a * b + c where the AVX2 kernel fuses it.
+ * nmadd: c - a * b, fused (GCC's fnmadd). */
 static inline float nmadd(float a, float b, float c) { return fmaf(-a, b, c); }
 
 /* The same, fused only when `fused`: Cycles evaluates Math and Vector Math on the
@@ -62,13 +61,6 @@ static inline float nmadd_f(bool fused, float a, float b, float c)
 {
     return fused ? fmaf(-a, b, c) : c - a * b;
 }
-
-/* Cycles' min/max/clamp: comparisons, so NaN in `a` yields the other operand. */
-static inline float cy_max(float a, float b) { return a > b ? a : b; }
-static inline float cy_min(float a, float b) { return a < b ? a : b; }
-static inline float cy_clamp(float a, float lo, float hi) { return cy_min(cy_max(a, lo), hi); }
-
-static inline float safe_divide(float a, float b) { return b != 0.0f ? a / b : 0.0f; }
 
 /* What (float)(int)b gives on x86: cvttss2si returns INT32_MIN for NaN and for
  * anything outside the int32 range (C leaves that undefined, so spell it out). */
@@ -84,6 +76,9 @@ static inline float safe_powf(float a, float b)
     return powf(a, b);
 }
 
+/* Cycles' min/max/clamp (minf, maxf, clampf), safe_divide, safe_sqrtf and fractf are
+ * shadergraph/kernel_math.h's. */
+
 static inline float safe_logf(float a, float b)
 {
     if (a <= 0.0f || b <= 0.0f)
@@ -91,18 +86,15 @@ static inline float safe_logf(float a, float b)
     return safe_divide(logf(a), logf(b));
 }
 
-static inline float safe_sqrtf(float a) { return sqrtf(cy_max(a, 0.0f)); }
 static inline float inverse_sqrtf(float a) { return a > 0.0f ? 1.0f / sqrtf(a) : 0.0f; }
-static inline float safe_asinf(float a) { return asinf(cy_clamp(a, -1.0f, 1.0f)); }
-static inline float safe_acosf(float a) { return acosf(cy_clamp(a, -1.0f, 1.0f)); }
+static inline float safe_asinf(float a) { return asinf(clampf(a, -1.0f, 1.0f)); }
+static inline float safe_acosf(float a) { return acosf(clampf(a, -1.0f, 1.0f)); }
 static inline float safe_modulo(float a, float b) { return b != 0.0f ? fmodf(a, b) : 0.0f; }
 
 static inline float safe_floored_modulo(bool fused, float a, float b)
 {
     return b != 0.0f ? nmadd_f(fused, floorf(a / b), b, a) : 0.0f;
 }
-
-static inline float fractf(float a) { return a - floorf(a); }
 
 /* wrapf(fused, value, max, min): value wrapped into [min, max). */
 static inline float wrapf(bool fused, float value, float hi, float lo)
@@ -143,15 +135,7 @@ static inline float compare(float a, float b, float epsilon)
 /* 4.3's compatible_atan2: 0 at the origin whatever the zeros' signs. */
 static inline float atan2_4(float y, float x) { return (x == 0.0f && y == 0.0f) ? 0.0f : atan2f(y, x); }
 
-/* ---- float3 helpers --------------------------------------------------------------- */
-
-/* _mm_dp_ps(a, b, 0x7F): products rounded, summed as (x + y) + z. */
-static inline float dot3(float3 a, float3 b)
-{
-    float x = a.x * b.x, y = a.y * b.y, z = a.z * b.z;
-    return (x + y) + z;
-}
-static inline float len3(float3 a) { return sqrtf(dot3(a, a)); }
+/* ---- float3 helpers (f3_dot, f3_length, normalize, safe_normalize: kernel_math.h) ---- */
 
 /* Cycles' SSE cross: msub(a, b.yzx, a.yzx * b), shuffled; msub is an FMA on AVX2. */
 static inline float3 cross3(bool fused, float3 a, float3 b)
@@ -160,22 +144,9 @@ static inline float3 cross3(bool fused, float3 a, float3 b)
                        madd_f(fused, a.x, b.y, -(a.y * b.x)));
 }
 
-static inline float3 safe_normalize3(float3 a)
-{
-    float t = len3(a);
-    return t != 0.0f ? f3_scale(a, 1.0f / t) : a;
-}
-
-/* 3.4's normalize: a / |a| (NaN for a zero vector). */
-static inline float3 normalize3_div(float3 a)
-{
-    float t = len3(a);
-    return make_float3(a.x / t, a.y / t, a.z / t);
-}
-
 static inline float3 reflect3(bool fused, float3 incident, float3 unit_normal)
 {
-    float d = dot3(incident, unit_normal);
+    float d = f3_dot(incident, unit_normal);
     float3 n2 = f3_scale(unit_normal, 2.0f);
     return make_float3(nmadd_f(fused, n2.x, d, incident.x), nmadd_f(fused, n2.y, d, incident.y),
                        nmadd_f(fused, n2.z, d, incident.z));
@@ -183,7 +154,7 @@ static inline float3 reflect3(bool fused, float3 incident, float3 unit_normal)
 
 static inline float3 refract3(bool fused, float3 incident, float3 normal, float eta)
 {
-    float d = dot3(normal, incident);
+    float d = f3_dot(normal, incident);
     float k = nmadd_f(fused, eta * eta, nmadd_f(fused, d, d, 1.0f), 1.0f);
     if (k < 0.0f)
         return make_float3(0.0f, 0.0f, 0.0f);
@@ -194,8 +165,8 @@ static inline float3 refract3(bool fused, float3 incident, float3 normal, float 
 
 static inline float3 project3(float3 v, float3 onto)
 {
-    float len_squared = dot3(onto, onto);
-    return len_squared != 0.0f ? f3_scale(onto, dot3(v, onto) / len_squared)
+    float len_squared = f3_dot(onto, onto);
+    return len_squared != 0.0f ? f3_scale(onto, f3_dot(v, onto) / len_squared)
                                : make_float3(0.0f, 0.0f, 0.0f);
 }
 
@@ -324,7 +295,7 @@ static void math_kernel(const sg_kernel_args *a)
     /* use_clamp: Cycles appends a Clamp node (MINMAX, 0..1); NaN becomes 0. */
     if (a->prop[MATH_PROP_USE_CLAMP])
         for (int i = 0; i < n; i++)
-            out[i] = cy_clamp(out[i], 0.0f, 1.0f);
+            out[i] = clampf(out[i], 0.0f, 1.0f);
 }
 
 #undef MATH_LOOP
@@ -396,12 +367,12 @@ static inline float3 map3(float3 a, float (*f)(float))
 
 static inline float3 reflect_versioned(bool fused, float3 a, float3 b, bool blender3)
 {
-    return reflect3(fused, a, blender3 ? normalize3_div(b) : safe_normalize3(b));
+    return reflect3(fused, a, blender3 ? normalize(b) : safe_normalize(b));
 }
 
 static inline float3 refract_versioned(bool fused, float3 a, float3 b, float eta, bool blender3)
 {
-    return refract3(fused, a, blender3 ? normalize3_div(b) : safe_normalize3(b), eta);
+    return refract3(fused, a, blender3 ? normalize(b) : safe_normalize(b), eta);
 }
 
 /* One loop per operation, like MATH_LOOP: a_, b_, c_ are the three vectors, s_ the
@@ -448,15 +419,15 @@ static void vector_math_kernel(const sg_kernel_args *a)
     case V_PROJECT: VECTOR_LOOP(v_ = project3(a_, b_));
     case V_REFLECT: VECTOR_LOOP(v_ = reflect_versioned(fused, a_, b_, blender3));
     case V_REFRACT: VECTOR_LOOP(v_ = refract_versioned(fused, a_, b_, s_, blender3));
-    case V_FACEFORWARD: VECTOR_LOOP(v_ = dot3(c_, b_) < 0.0f ? a_ : f3_scale(a_, -1.0f));
-    case V_DOT_PRODUCT: VECTOR_LOOP(value_ = dot3(a_, b_));
-    case V_DISTANCE: VECTOR_LOOP(value_ = len3(f3_sub(a_, b_)));
-    case V_LENGTH: VECTOR_LOOP(value_ = len3(a_));
+    case V_FACEFORWARD: VECTOR_LOOP(v_ = f3_dot(c_, b_) < 0.0f ? a_ : f3_scale(a_, -1.0f));
+    case V_DOT_PRODUCT: VECTOR_LOOP(value_ = f3_dot(a_, b_));
+    case V_DISTANCE: VECTOR_LOOP(value_ = f3_length(f3_sub(a_, b_)));
+    case V_LENGTH: VECTOR_LOOP(value_ = f3_length(a_));
     case V_SCALE: VECTOR_LOOP(v_ = f3_scale(a_, s_));
-    case V_NORMALIZE: VECTOR_LOOP(v_ = safe_normalize3(a_));
+    case V_NORMALIZE: VECTOR_LOOP(v_ = safe_normalize(a_));
     case V_ABSOLUTE: VECTOR_LOOP(v_ = map3(a_, fabsf));
-    case V_MINIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(cy_min));
-    case V_MAXIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(cy_max));
+    case V_MINIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(minf));
+    case V_MAXIMUM: VECTOR_LOOP(v_ = COMPONENTWISE2(maxf));
     case V_FLOOR: VECTOR_LOOP(v_ = map3(a_, floorf));
     case V_CEIL: VECTOR_LOOP(v_ = map3(a_, ceilf));
     case V_FRACTION: VECTOR_LOOP(v_ = map3(a_, fractf));
@@ -514,8 +485,8 @@ static const sg_prop_def clamp_props[] = {
 static inline float clamp_node(float value, float lo, float hi, bool range)
 {
     if (range && lo > hi)
-        return cy_clamp(value, hi, lo);
-    return cy_clamp(value, lo, hi);
+        return clampf(value, hi, lo);
+    return clampf(value, lo, hi);
 }
 
 static void clamp_kernel(const sg_kernel_args *a)
@@ -611,7 +582,7 @@ static inline float smootherstep_unit(float t)
 
 static inline float smootherstep_edges(float edge0, float edge1, float x, bool complement)
 {
-    float t = cy_clamp(safe_divide(x - edge0, edge1 - edge0), 0.0f, 1.0f);
+    float t = clampf(safe_divide(x - edge0, edge1 - edge0), 0.0f, 1.0f);
     if (complement)
         return nmadd(t * t * t, madd(t, madd(t, 6.0f, -15.0f), 10.0f), 1.0f);
     return smootherstep_unit(t);
@@ -657,11 +628,11 @@ static inline float map_range_component(int interpolation, bool clamp, float val
         factor = steps > 0.0f ? floorf(factor * (steps + 1.0f)) / steps : 0.0f;
         break;
     case MR_SMOOTHSTEP:
-        factor = cy_clamp(factor, 0.0f, 1.0f);
+        factor = clampf(factor, 0.0f, 1.0f);
         factor = nmadd(2.0f, factor, 3.0f) * (factor * factor);
         break;
     case MR_SMOOTHERSTEP:
-        factor = smootherstep_unit(cy_clamp(factor, 0.0f, 1.0f));
+        factor = smootherstep_unit(clampf(factor, 0.0f, 1.0f));
         break;
     default:
         break;

@@ -65,20 +65,16 @@ enum { TYPE_MULTIFRACTAL, TYPE_RIDGED, TYPE_HYBRID, TYPE_FBM, TYPE_HETERO };
 
 /* ---- float helpers with Cycles' rounding ----------------------------------------- */
 
-/* A product that the AVX2 kernel fuses into the following sum: a * b + c. */
-static inline float madd(float a, float b, float c) { return fmaf(a, b, c); }
+/* madd (a product that the AVX2 kernel fuses into the following sum), mix_fused (Cycles'
+ * mix(a, b, t) = a + t * (b - a) as that kernel fuses it) and clampf (Cycles' clamp) are
+ * shadergraph/kernel_math.h's. */
 
-/* Cycles' mix(a, b, t) = a + t * (b - a), fused. */
-static inline float lerp(float a, float b, float t) { return madd(t, b - a, a); }
-
-/* The SIMD mix of Cycles' vector Perlin code: 4.x's float4 mix is a + t * (b - a); 3.4's
- * ssef mix was madd(t, b, (1 - t) * a). */
+/* The SIMD mix of Cycles' vector Perlin code: 4.x's float4 mix is a + t * (b - a), fused;
+ * 3.4's ssef mix was madd(t, b, (1 - t) * a). */
 static inline float simd_mix(float a, float b, float t, bool blender3)
 {
-    return blender3 ? madd(t, b, (1.0f - t) * a) : lerp(a, b, t);
+    return blender3 ? madd(t, b, (1.0f - t) * a) : mix_fused(a, b, t);
 }
-
-static inline float clampf(float x, float lo, float hi) { return fminf(fmaxf(x, lo), hi); }
 
 /* floor and fraction; the integer part is what cvttss2si/cvttps2dq produce, which is
  * INT32_MIN ("integer indefinite") for NaN and anything outside int32 range. Blender
@@ -843,8 +839,8 @@ static float fbm4(const noise_mode *m, const float *t, float detail, float rough
     if (rmd != 0.0f) {
         float sum2 = madd(m->scale * t[n + 1], amp, sum);
         if (normalize)
-            return lerp(0.5f * sum / maxamp + 0.5f, 0.5f * sum2 / (maxamp + amp) + 0.5f, rmd);
-        return lerp(sum, sum2, rmd);
+            return mix_fused(0.5f * sum / maxamp + 0.5f, 0.5f * sum2 / (maxamp + amp) + 0.5f, rmd);
+        return mix_fused(sum, sum2, rmd);
     }
     return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
 }

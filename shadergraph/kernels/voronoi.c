@@ -87,12 +87,8 @@ typedef struct voronoi_result {
 
 /* ---- small helpers ----------------------------------------------------------------- */
 
-/* Cycles' mix, a + t * (b - a), fused as its AVX2 build fuses it. */
-static inline float mixf(float a, float b, float t) { return fmaf(t, b - a, a); }
-/* Cycles' min/max/clamp, whose NaN behaviour differs from fminf/fmaxf. */
-static inline float minf(float a, float b) { return (a < b) ? a : b; }
-static inline float maxf(float a, float b) { return (a > b) ? a : b; }
-static inline float clampf(float x, float lo, float hi) { return minf(maxf(x, lo), hi); }
+/* Cycles' mix as its AVX2 build fuses it (mix_fused) and its min/max/clamp, whose NaN
+ * behaviour differs from fminf/fmaxf (minf, maxf, clampf): shadergraph/kernel_math.h. */
 
 /* x / f for a component of a Cycles float<dims>: float2 and float4 divide by a scalar
  * through its reciprocal, float3 (SSE) and float divide directly. */
@@ -543,13 +539,13 @@ static voronoi_result voronoi_smooth_f1(const voronoi_params *p, const vpoint *c
                       1.0f :
                       smoothstepf(0.0f, 1.0f, 0.5f + 0.5f * (smooth_distance - d) / smoothness);
         float correction = smoothness * h * (1.0f - h);
-        smooth_distance = mixf(smooth_distance, d, h) - correction;
+        smooth_distance = mix_fused(smooth_distance, d, h) - correction;
         correction /= fmaf(3.0f, smoothness, 1.0f);
         if (p->want_color)
             for (int c = 0; c < 3; c++)
-                smooth_color[c] = mixf(smooth_color[c], table.color[idx][c], h) - correction;
+                smooth_color[c] = mix_fused(smooth_color[c], table.color[idx][c], h) - correction;
         for (int c = 0; c < dims; c++)
-            smooth_point.v[c] = mixf(smooth_point.v[c], pt.v[c], h) - correction;
+            smooth_point.v[c] = mix_fused(smooth_point.v[c], pt.v[c], h) - correction;
     }
 
     voronoi_result r;
@@ -770,24 +766,26 @@ static voronoi_result fractal_voronoi(const voronoi_params *p, const vpoint *coo
             for (int c = 0; c < 3; c++)
                 out.color[c] = fmaf(octave.color[c], amplitude, out.color[c]);
             for (int c = 0; c < 4; c++)
-                out.position.v[c] = mixf(out.position.v[c], octave.position.v[c] * (1.0f / scale),
-                                         amplitude);
+                out.position.v[c] = mix_fused(out.position.v[c],
+                                              octave.position.v[c] * (1.0f / scale), amplitude);
             scale *= p->lacunarity;
             amplitude *= p->roughness;
         }
         else {
             float remainder = p->detail - floorf(p->detail);
             if (remainder != 0.0f) {
-                max_amplitude = mixf(max_amplitude, max_amplitude + amplitude, remainder);
-                out.distance = mixf(out.distance, fmaf(octave.distance, amplitude, out.distance),
-                                    remainder);
+                max_amplitude = mix_fused(max_amplitude, max_amplitude + amplitude, remainder);
+                out.distance = mix_fused(out.distance,
+                                         fmaf(octave.distance, amplitude, out.distance), remainder);
                 for (int c = 0; c < 3; c++)
-                    out.color[c] = mixf(out.color[c], fmaf(octave.color[c], amplitude, out.color[c]),
-                                        remainder);
+                    out.color[c] = mix_fused(out.color[c],
+                                             fmaf(octave.color[c], amplitude, out.color[c]),
+                                             remainder);
                 for (int c = 0; c < 4; c++)
-                    out.position.v[c] = mixf(
+                    out.position.v[c] = mix_fused(
                         out.position.v[c],
-                        mixf(out.position.v[c], octave.position.v[c] * (1.0f / scale), amplitude),
+                        mix_fused(out.position.v[c], octave.position.v[c] * (1.0f / scale),
+                                  amplitude),
                         remainder);
             }
         }
@@ -820,19 +818,19 @@ static float fractal_distance_to_edge(const voronoi_params *p, const vpoint *coo
             break;
         }
         if ((float)i <= p->detail) {
-            max_amplitude = mixf(max_amplitude, p->max_distance / scale, amplitude);
-            distance = mixf(distance, minf(distance, octave_distance / scale), amplitude);
+            max_amplitude = mix_fused(max_amplitude, p->max_distance / scale, amplitude);
+            distance = mix_fused(distance, minf(distance, octave_distance / scale), amplitude);
             scale *= p->lacunarity;
             amplitude *= p->roughness;
         }
         else {
             float remainder = p->detail - floorf(p->detail);
             if (remainder != 0.0f) {
-                float lerp_amplitude = mixf(max_amplitude, p->max_distance / scale, amplitude);
-                max_amplitude = mixf(max_amplitude, lerp_amplitude, remainder);
-                float lerp_distance = mixf(distance, minf(distance, octave_distance / scale),
-                                           amplitude);
-                distance = mixf(distance, minf(distance, lerp_distance), remainder);
+                float lerp_amplitude = mix_fused(max_amplitude, p->max_distance / scale, amplitude);
+                max_amplitude = mix_fused(max_amplitude, lerp_amplitude, remainder);
+                float lerp_distance = mix_fused(distance, minf(distance, octave_distance / scale),
+                                                amplitude);
+                distance = mix_fused(distance, minf(distance, lerp_distance), remainder);
             }
         }
     }
