@@ -134,6 +134,7 @@ void fo_criterion_node_stats(const int32_t *idx, size_t n, size_t k, const fo_ac
                              double *sum, double *sumsq, double *wsum, double *impurity,
                              double *wimpurity)
 {
+    (void)wy; /* kept for symmetry with the splitter (forest_impl.h) */
     const size_t kp = fo_padded(k);
     for (size_t j = 0; j < kp; j++)
         sum[j] = sumsq[j] = 0.0;

@@ -357,6 +357,7 @@ typedef struct gram_ctx {
 
 static void gram_slice_job(const void *ctx, size_t chunk, float *scratch)
 {
+    (void)scratch; /* a job_fn; this job needs no scratch */
     const gram_ctx *g = ctx;
     size_t i = chunk / g->slices, s = chunk % g->slices;
     int c0 = (int)s * g->slice, len = g->HW - c0 < g->slice ? g->HW - c0 : g->slice;
@@ -368,6 +369,7 @@ static void gram_slice_job(const void *ctx, size_t chunk, float *scratch)
 /* Chunk = (image, row of G): sum the slices' row in order, scale, write the upper part. */
 static void gram_finish_job(const void *ctx, size_t chunk, float *scratch)
 {
+    (void)scratch; /* a job_fn; this job needs no scratch */
     const gram_ctx *g = ctx;
     size_t i = chunk / g->K;
     int r = (int)(chunk % g->K);

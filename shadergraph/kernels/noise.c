@@ -824,7 +824,10 @@ static void scaled_points(npoint p, float factor, int count, npoint *pts)
 
 /* ---- Blender 4.x (fractal_noise.h) ------------------------------------------------ */
 
-static float fbm4(const noise_mode *m, const float *t, float detail, float roughness, float lacunarity,
+/* Lacunarity is not a parameter here: it has placed the octave points already
+ * (layout_points), and t holds the noise values there. */
+
+static float fbm4(const noise_mode *m, const float *t, float detail, float roughness,
                   bool normalize)
 {
     int n = (int)detail;
@@ -845,8 +848,7 @@ static float fbm4(const noise_mode *m, const float *t, float detail, float rough
     return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
 }
 
-static float multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
-                            float lacunarity)
+static float multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness)
 {
     int n = (int)detail;
     float rmd = detail - floorf(detail);
@@ -862,7 +864,7 @@ static float multi_fractal4(const noise_mode *m, const float *t, float detail, f
 }
 
 static float hetero_terrain4(const noise_mode *m, const float *t, float detail, float roughness,
-                             float lacunarity, float offset)
+                             float offset)
 {
     int n = (int)detail;
     float rmd = detail - floorf(detail);
@@ -884,7 +886,7 @@ static float hetero_terrain4(const noise_mode *m, const float *t, float detail, 
 }
 
 static float hybrid_multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
-                                   float lacunarity, float offset, float gain)
+                                   float offset, float gain)
 {
     int n = (int)detail;
     float rmd = detail - floorf(detail);
@@ -908,7 +910,7 @@ static float hybrid_multi_fractal4(const noise_mode *m, const float *t, float de
 }
 
 static float ridged_multi_fractal4(const noise_mode *m, const float *t, float detail, float roughness,
-                                   float lacunarity, float offset, float gain)
+                                   float offset, float gain)
 {
     int n = (int)detail;
 
@@ -1154,18 +1156,15 @@ static float fractal_value(const noise_node *nn, const noise_inputs *in, const f
     if (!m->blender3) {
         switch (nn->type) {
         case TYPE_MULTIFRACTAL:
-            return multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity);
+            return multi_fractal4(m, t, in->detail, in->roughness);
         case TYPE_RIDGED:
-            return ridged_multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity,
-                                         in->offset, in->gain);
+            return ridged_multi_fractal4(m, t, in->detail, in->roughness, in->offset, in->gain);
         case TYPE_HYBRID:
-            return hybrid_multi_fractal4(m, t, in->detail, in->roughness, in->lacunarity,
-                                         in->offset, in->gain);
+            return hybrid_multi_fractal4(m, t, in->detail, in->roughness, in->offset, in->gain);
         case TYPE_HETERO:
-            return hetero_terrain4(m, t, in->detail, in->roughness, in->lacunarity,
-                                   in->offset);
+            return hetero_terrain4(m, t, in->detail, in->roughness, in->offset);
         default:
-            return fbm4(m, t, in->detail, in->roughness, in->lacunarity, nn->normalize);
+            return fbm4(m, t, in->detail, in->roughness, nn->normalize);
         }
     }
     if (!nn->as_musgrave)

@@ -90,13 +90,22 @@ static void check_exact_case(const char *name, int max_depth, int mss, int msl)
     free(got);
 }
 
-static void test_exact_matches_sklearn_leaf4(void **state) { check_exact_case("leaf4", 0, 2, 4); }
-static void test_exact_matches_sklearn_depth5(void **state) { check_exact_case("depth5", 5, 20, 1); }
+static void test_exact_matches_sklearn_leaf4(void **state)
+{
+    (void)state;
+    check_exact_case("leaf4", 0, 2, 4);
+}
+static void test_exact_matches_sklearn_depth5(void **state)
+{
+    (void)state;
+    check_exact_case("depth5", 5, 20, 1);
+}
 
 /* Random-forest mode (bootstrap, sqrt features): held-out R^2, averaged over seeds, within
  * 0.02 of scikit-learn's average for the same hyper-parameters, in both split modes. */
 static void test_random_forest_r2_matches_sklearn(void **state)
 {
+    (void)state;
     size_t n, d, nt, k, r, c;
     float *X = load(REF "rf_X_train.npy", &n, &d);
     float *Y = load(REF "rf_Y_train.npy", &r, &k);
@@ -139,6 +148,7 @@ static void test_random_forest_r2_matches_sklearn(void **state)
  * between the node's values) and bin edges (halfway between the feature's) differ. */
 static void test_binned_equals_exact_on_few_values(void **state)
 {
+    (void)state;
     enum { N = 300, D = 5, K = 2 };
     static float X[N * D], Y[N * K];
     uint64_t s = 99;
@@ -191,6 +201,7 @@ static void synthetic(size_t n, size_t d, uint64_t seed, float *X, float *Y)
 /* Fitting with 1 or 3 threads gives the same bytes on disk. */
 static void test_threads_do_not_change_the_forest(void **state)
 {
+    (void)state;
     enum { N = 400, D = 12 };
     static float X[N * D], Y[N * 2];
     synthetic(N, D, 3, X, Y);
@@ -233,6 +244,7 @@ static void test_threads_do_not_change_the_forest(void **state)
  * errors that name the file and the place. */
 static void test_save_load_and_bad_files(void **state)
 {
+    (void)state;
     enum { N = 200, D = 6 };
     static float X[N * D], Y[N * 2], P1[N * 2], P2[N * 2];
     synthetic(N, D, 8, X, Y);
@@ -303,6 +315,7 @@ static void test_save_load_and_bad_files(void **state)
  * impossible parameters. */
 static void test_bad_inputs(void **state)
 {
+    (void)state;
     float X[8] = {0, 1, 2, 3, 4, 5, 6, 7}, Y[4] = {0, 1, 2, 3};
     uint8_t M[4] = {1, 1, 0, 1};
     forest_params p = forest_default_params();
@@ -333,6 +346,7 @@ static void test_bad_inputs(void **state)
  * may fall the other way). */
 static void test_masked_targets_are_ignored(void **state)
 {
+    (void)state;
     enum { N = 300, NT = 200, D = 6 };
     static float X[(N + NT) * D], Y[(N + NT) * 2], Y2[N * 2], P1[N * 2], P2[N * 2];
     static uint8_t M[N * 2], ones[N * 2];
@@ -369,6 +383,7 @@ static void test_masked_targets_are_ignored(void **state)
  * leaves without any) predict the output's mean over its active rows, never 0. */
 static void test_rarely_active_output(void **state)
 {
+    (void)state;
     enum { N = 300, D = 4 };
     static float X[N * D], Y[N * 2], P[N * 2];
     static uint8_t M[N * 2];
@@ -391,6 +406,7 @@ static void test_rarely_active_output(void **state)
  * (0, 1, 2) above every noise feature. */
 static void test_importances_find_the_signal(void **state)
 {
+    (void)state;
     enum { N = 500, NT = 200, D = 10 };
     static float X[(N + NT) * D], Y[(N + NT) * 2];
     synthetic(N + NT, D, 77, X, Y);

@@ -34,6 +34,7 @@ static double sse(const double *y, int a, int b)
  * min_leaf rules out splits with a small side. */
 static void test_criterion_matches_brute_force(void **state)
 {
+    (void)state;
     enum { N = 9 };
     const double y[N * 2] = {0.3, 1, -0.2, 2, 1.5, 0, 1.7, 0.5, 1.6, -1, 3.0, 4, 2.9, 3.5,
                              0.1, 0, 3.2, 3.9};
@@ -79,6 +80,7 @@ static void test_criterion_matches_brute_force(void **state)
  * the rows that decide it, the split follows output 0 alone. */
 static void test_masked_criterion(void **state)
 {
+    (void)state;
     enum { N = 6 };
     /* output 0 wants a cut after row 2, output 1 (strongly) after row 0 */
     const float y0[N] = {0, 0, 0, 1, 1, 1}, y1[N] = {10, 0, 0, 0, 0, 0};
@@ -114,6 +116,7 @@ static void test_masked_criterion(void **state)
  * scikit-learn's), wimpurity that times the weight; masked outputs use their own rows. */
 static void test_node_stats(void **state)
 {
+    (void)state;
     const float Y[4 * 2] = {1, 5, 2, 7, 4, 100, 9, 9};
     const int32_t idx[3] = {0, 1, 3};
     const double w[4] = {1, 2, 0, 1}; /* row 1 drawn twice, row 2 not at all */
@@ -137,6 +140,7 @@ static void test_node_stats(void **state)
  * increasing, never inside a run of equal values, splitting the rows evenly. */
 static void test_bin_edges(void **state)
 {
+    (void)state;
     const float few[7] = {0, 0, 1, 2, 2, 2, 3};
     float edges[255];
     assert_int_equal(fo_bins_edges(few, 7, 256, edges), 3);
@@ -176,6 +180,7 @@ static void test_bin_edges(void **state)
  * and thread count. */
 static void test_bin_codes(void **state)
 {
+    (void)state;
     enum { N = 500, D = 70 }; /* more features than a block of 64 */
     static float X[N * D];
     uint64_t s = 3;
@@ -211,6 +216,7 @@ static void test_bin_codes(void **state)
  * and partitions rows by them. */
 static void test_exact_splitter(void **state)
 {
+    (void)state;
     enum { N = 6 };
     /* 0.002 and 0.00200005 are closer than 1e-7: one group */
     const float x[N] = {0.003f, 0.001f, 0.002f, 0.00200005f, 0.005f, 0.001f};

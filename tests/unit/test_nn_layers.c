@@ -89,6 +89,7 @@ static void check_conv(int N, int C, int K, int H, int W, int winograd, size_t b
 
 static void test_winograd_shapes(void **state)
 {
+    (void)state;
     check_conv(2, 16, 24, 9, 37, 1, 1 << 20);  /* odd plane: partial tiles at both edges */
     check_conv(1, 16, 16, 6, 70, 1, 1 << 20);  /* 35 tiles a row: two 16-groups + tail */
     check_conv(2, 8, 16, 5, 5, 1, 1);          /* smallest chunk: 96 tiles, spans images */
@@ -100,6 +101,7 @@ static void test_winograd_shapes(void **state)
 
 static void test_im2col_shapes(void **state)
 {
+    (void)state;
     check_conv(2, 3, 16, 9, 13, 0, 1 << 20); /* chunks span both images */
     check_conv(2, 5, 8, 2, 2, 0, 1);
     check_conv(2, 3, 12, 9, 13, 0, 1 << 12); /* K not a multiple of 8: sgemm, per image */
@@ -107,6 +109,7 @@ static void test_im2col_shapes(void **state)
 
 static void test_reference_conv_matches_definition(void **state)
 {
+    (void)state;
     /* One channel, a centre-tap filter plus a right-neighbour tap: out = 2 x + 3 x_right + 1. */
     float in[12], w[9] = {0, 0, 0, 0, 2, 3, 0, 0, 0}, b[1] = {1}, out[12];
     for (int i = 0; i < 12; i++)
@@ -121,6 +124,7 @@ static void test_reference_conv_matches_definition(void **state)
 
 static void test_pooling(void **state)
 {
+    (void)state;
     /* 7x7 plane of 0..48: avg3/stride 3 gives 2x2 means of 3x3 blocks (floor mode drops the
      * last row and column); max2 gives 3x3. */
     float in[49], out[9];
@@ -137,6 +141,7 @@ static void test_pooling(void **state)
 
 static void test_gram_upper(void **state)
 {
+    (void)state;
     /* f = [[1,2,3],[4,5,6]]: f f^T / 3 = [[14,32],[32,77]] / 3, upper triangle row-major. */
     float f[6] = {1, 2, 3, 4, 5, 6}, out[3], scratch[4];
     gram_upper_forward(out, f, 2, 3, scratch);
@@ -147,6 +152,7 @@ static void test_gram_upper(void **state)
 
 static void test_preprocess_crop_clamp_normalise(void **state)
 {
+    (void)state;
     /* 230x226 RGB: crop starts at ((226-224)/2, (230-224)/2) = (1, 3). */
     int w = 230, h = 226;
     float *px = malloc((size_t)w * h * 3 * sizeof(float)), *out = malloc(3 * 224 * 224 * 4);
@@ -170,6 +176,7 @@ static void test_preprocess_crop_clamp_normalise(void **state)
 
 static void test_random_init(void **state)
 {
+    (void)state;
     vgg19 a, b;
     const int width[5] = {8, 16, 16, 16, 16};
     assert_int_equal(vgg19_init_random(&a, width, 7), 0);
@@ -211,6 +218,7 @@ static void texture(float *px, int size, double period, double angle, int dx, in
  * different texture, at every layer. */
 static void test_random_init_separates_textures(void **state)
 {
+    (void)state;
     vgg19 net;
     assert_int_equal(vgg19_init_random(&net, vgg19_standard_width, 1), 0);
     const int size = 256;
@@ -249,6 +257,7 @@ static void test_random_init_separates_textures(void **state)
 
 static void test_npy_roundtrip(void **state)
 {
+    (void)state;
     char path[] = "/tmp/test_nn_npy_XXXXXX";
     int fd = mkstemp(path);
     assert_true(fd >= 0);
@@ -297,6 +306,7 @@ static void write_raw_npy(const char *path, const char *dict, const void *bytes,
 
 static void test_npy_read(void **state)
 {
+    (void)state;
     char path[] = "/tmp/test_nn_npy_read_XXXXXX";
     int fd = mkstemp(path);
     assert_true(fd >= 0);

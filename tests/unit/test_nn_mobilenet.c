@@ -93,6 +93,7 @@ static mnv2_options options(const char *taps, int scales, int signed_input, int 
 
 static void test_default_taps_against_torch(void **state)
 {
+    (void)state;
     mobilenetv2 net = load_net();
     mnv2_options opt = options(mnv2_default_taps, 2, 0, 2);
     size_t off[2 * MNV2_MAX_TAPS + 1];
@@ -127,6 +128,7 @@ static void test_default_taps_against_torch(void **state)
 
 static void test_every_tap_kind_at_64_signed(void **state)
 {
+    (void)state;
     mobilenetv2 net = load_net();
     mnv2_options opt = options(taps64, 1, 1, 1);
     assert_int_equal(opt.ntaps, 10);
@@ -167,6 +169,7 @@ static void test_every_tap_kind_at_64_signed(void **state)
 /* Threads and batch only change who computes an image, never its bits. */
 static void test_bits_independent_of_threads_and_batch(void **state)
 {
+    (void)state;
     mobilenetv2 net = load_net();
     float *two = fixture_inputs();
     int n = getenv("IMSYNTH_TEST_QUICK") ? 3 : 5;
@@ -202,6 +205,7 @@ static void test_bits_independent_of_threads_and_batch(void **state)
 
 static void test_tap_lists(void **state)
 {
+    (void)state;
     mnv2_tap taps[MNV2_MAX_TAPS];
     char err[256], name[64];
     assert_int_equal(mnv2_taps_parse(mnv2_default_taps, taps, err, sizeof err), 5);
@@ -283,6 +287,7 @@ static size_t find_in_file(const char *needle)
 
 static void test_broken_weight_files(void **state)
 {
+    (void)state;
     mobilenetv2 net;
     char err[512];
     const char *path = IMSYNTH_BINARY_DIR "/mnv2_broken.safetensors";
@@ -335,6 +340,7 @@ static void test_broken_weight_files(void **state)
  * replicated, alpha dropped, too small refused. */
 static void test_preprocess(void **state)
 {
+    (void)state;
     const int W = 230, H = 226; /* crop origin: x0 = 3, y0 = 1 */
     float *px = malloc((size_t)W * H * 4 * sizeof(float)), *out = malloc(3 * 224 * 224 * 4);
     for (int y = 0; y < H; y++)

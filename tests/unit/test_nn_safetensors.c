@@ -36,6 +36,7 @@ static const char *write_file(const char *name, const char *header, const void *
 
 static int setup(void **state)
 {
+    (void)state;
     return mkdtemp(dir) ? 0 : -1;
 }
 
@@ -52,6 +53,7 @@ static const char *good_header =
 
 static void test_valid_file_all_dtypes(void **state)
 {
+    (void)state;
     const char *path = write_file("good.safetensors", good_header, good_data, sizeof good_data, -1);
     nn_safetensors st;
     char err[512];
@@ -123,6 +125,7 @@ static void expect_refused(const char *name, const char *header, size_t ndata, i
 
 static void test_lying_files(void **state)
 {
+    (void)state;
     expect_refused("hlen.safetensors", good_header, sizeof good_data, 1 << 30,
                    "header length 1073741824 runs past the end of the file");
     expect_refused("json.safetensors", "{\"a\":{\"dtype\":", 0, -1, "not valid JSON");
@@ -170,6 +173,7 @@ static void test_lying_files(void **state)
 /* vgg19_load on a valid safetensors without VGG keys, and with a wrongly shaped conv. */
 static void test_vgg_load_errors(void **state)
 {
+    (void)state;
     const char *path = write_file("novgg.safetensors", good_header, good_data, sizeof good_data, -1);
     vgg19 net;
     char err[512];
@@ -180,6 +184,7 @@ static void test_vgg_load_errors(void **state)
 
 static int teardown(void **state)
 {
+    (void)state;
     char cmd[300];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
     return system(cmd) == 0 ? 0 : -1;

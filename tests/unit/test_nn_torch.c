@@ -54,6 +54,7 @@ static void compare(const vgg19 *net, const float *input, const char *file, vgg_
 
 static void test_full_vgg19_against_torch(void **state)
 {
+    (void)state;
     int rc = system("OMP_NUM_THREADS=2 /usr/bin/python3 " IMSYNTH_SOURCE_DIR
                     "/tests/reference/nn/make_fixture.py --full " OUT);
     if (rc == -1 || !WIFEXITED(rc) || WEXITSTATUS(rc) == 77 || WEXITSTATUS(rc) == 127) {

@@ -131,6 +131,7 @@ static void fd_grad(scalar_fn f, const layer_case *c, const float *x, size_t n, 
 
 static void test_linear_gradients(void **state)
 {
+    (void)state;
     enum { B = 5, C = 7, OC = 4 };
     float x[B * C], w[OC * C], b[OC], dout[B * OC], out[B * OC];
     fill(x, B * C, -1, 1);
@@ -223,6 +224,7 @@ static void check_elementwise(scalar_fn f, int kind, double lo, double hi)
 
 static void test_activation_gradients(void **state)
 {
+    (void)state;
     check_elementwise(d_relu, 0, -2, 2);
     check_elementwise(d_leaky, 1, -2, 2);
     check_elementwise(d_gelu, 2, -4, 4);
@@ -240,6 +242,7 @@ static void test_activation_gradients(void **state)
 
 static void test_dropout_statistics(void **state)
 {
+    (void)state;
     // keep is 0 or 1/(1-p), a fraction ~1-p kept, the same for the same seed, and a
     // different pattern for another seed
     enum { N = 20000 };
@@ -270,6 +273,7 @@ static void test_dropout_statistics(void **state)
 
 static void test_layernorm_gradients(void **state)
 {
+    (void)state;
     enum { B = 4, C = 9 };
     float x[B * C], w[C], b[C], dout[B * C], out[B * C], mean[B], rstd[B];
     fill(x, B * C, -2, 3);
@@ -327,6 +331,7 @@ static double d_regression(nn_loss kind, const double *p, const float *y, const 
 
 static void test_regression_loss_gradients(void **state)
 {
+    (void)state;
     enum { B = 6, C = 5 };
     float p[B * C], y[B * C], m[B * C], wc[C];
     fill(p, B * C, 0.05, 0.95);
@@ -393,6 +398,7 @@ static double d_ce(const double *z, const float *cls, const float *m, int B, int
 
 static void test_cross_entropy_gradients(void **state)
 {
+    (void)state;
     enum { B = 7, K = 4 };
     float z[B * K], cls[B], m[B], probs[B * K];
     fill(z, B * K, -3, 3);
@@ -435,6 +441,7 @@ static void test_cross_entropy_gradients(void **state)
  * gradients (float differences need a gradient well above the loss's rounding). */
 static void test_mlp_gradient_all_options(void **state)
 {
+    (void)state;
     enum { B = 8, IN = 6, YC = 6 };
     char err[256];
     nn_mlp_config cfg;
@@ -499,6 +506,7 @@ static void test_mlp_gradient_all_options(void **state)
 
 static void test_threads_bit_identical(void **state)
 {
+    (void)state;
     // big enough that every sgemm is cut into pieces (widths 600: three pieces of at
     // least 256 columns, linear.c) and the pieces run on several threads
     enum { B = 64, IN = 300, STEPS = 3 };
@@ -543,6 +551,7 @@ static void test_threads_bit_identical(void **state)
 
 static void test_arch_and_heads_specs(void **state)
 {
+    (void)state;
     char err[256], buf[256];
     nn_mlp_config cfg;
     assert_int_equal(nn_mlp_parse_arch("mlp:2500-512-512-50,gelu,ln,dropout=0.1,res,init=xavier",
@@ -589,6 +598,7 @@ static void test_arch_and_heads_specs(void **state)
 
 static void test_schedules(void **state)
 {
+    (void)state;
     nn_optimizer_config c = nn_optimizer_defaults(NN_OPT_ADAMW);
     c.lr = 1.0f;
     assert_true(nn_schedule_lr(&c, 12345) == 1.0f);
@@ -608,6 +618,7 @@ static void test_schedules(void **state)
 
 static void test_clipping(void **state)
 {
+    (void)state;
     // gradient (3, 4): norm 5, clipped to 1 -> (0.6, 0.8); plain SGD lr 1 then moves p by it
     nn_optimizer_config c = nn_optimizer_defaults(NN_OPT_SGD);
     c.lr = 1.0f;
@@ -626,6 +637,7 @@ static void test_clipping(void **state)
 
 static void test_data_checks(void **state)
 {
+    (void)state;
     char err[256];
     nn_mlp_config cfg;
     assert_int_equal(nn_mlp_parse_arch("mlp:2-4-4", &cfg, err, sizeof err), 0);
@@ -665,6 +677,7 @@ static void test_data_checks(void **state)
 
 static void test_batches(void **state)
 {
+    (void)state;
     // an epoch of 10 rows in batches of 4: 4, 4, 2 (torch's drop_last=False)
     long long epoch;
     size_t first;

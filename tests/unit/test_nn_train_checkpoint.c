@@ -59,6 +59,7 @@ static void train(nn_mlp *m, nn_optimizer *opt, const float *x, const float *y,
 
 static void test_save_load_resume(void **state)
 {
+    (void)state;
     size_t r, c;
     float *x = load(REF "x.npy", &r, &c), *y = load(REF "y.npy", &r, &c),
           *mask = load(REF "mask.npy", &r, &c);
@@ -112,6 +113,7 @@ static void test_save_load_resume(void **state)
  * and written again by us: the same tensor names, shapes and bytes. */
 static void test_torch_names_both_ways(void **state)
 {
+    (void)state;
     const char *cases[][3] = {
         {"adamw_mlp3", "mlp:16-64-64-4,relu", "linear:0-3"},
         {"adamw_mixed", "mlp:16-48-48-13,gelu,ln", "sigmoid:0-5,softmax:6/4,softmax:7/3:unit"},
@@ -189,6 +191,7 @@ static void expect_load_error(const char *path, const char *what)
 
 static void test_bad_checkpoints(void **state)
 {
+    (void)state;
     char err[512];
     nn_mlp m;
     make_model(&m, "mlp:16-8-4", "linear:0-3");

@@ -274,16 +274,33 @@ static void run_cli_case(const char *c, const char *flags)
 
 static void test_cli_matches_torch(void **state)
 {
+    (void)state;
     run_cli_case("adamw_mlp3", "");
     run_cli_case("adamw_mixed", "");
     run_cli_case("sgd_clip_step", "--momentum 0.9 --clip 0.5 --schedule step --step-size 30 "
                                   "--gamma 0.5");
 }
 
-static void test_adamw_mlp3(void **state) { run_case("adamw_mlp3"); }
-static void test_adamw_mixed_heads(void **state) { run_case("adamw_mixed"); }
-static void test_sgd_clip_step(void **state) { run_case("sgd_clip_step"); }
-static void test_adam_residual_cosine(void **state) { run_case("adam_res_cosine"); }
+static void test_adamw_mlp3(void **state)
+{
+    (void)state;
+    run_case("adamw_mlp3");
+}
+static void test_adamw_mixed_heads(void **state)
+{
+    (void)state;
+    run_case("adamw_mixed");
+}
+static void test_sgd_clip_step(void **state)
+{
+    (void)state;
+    run_case("sgd_clip_step");
+}
+static void test_adam_residual_cosine(void **state)
+{
+    (void)state;
+    run_case("adam_res_cosine");
+}
 
 int main(void)
 {

@@ -19,6 +19,7 @@
 
 static void test_sha256(void **state)
 {
+    (void)state;
     char h[65];
     pipeline_sha256_hex("", 0, h);
     assert_string_equal(h, "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
@@ -36,6 +37,7 @@ static void test_sha256(void **state)
 
 static void test_half_float(void **state)
 {
+    (void)state;
     /* Every non-NaN half survives half -> float -> half. */
     for (uint32_t u = 0; u < 65536; u++) {
         uint16_t hv = (uint16_t)u;
@@ -58,6 +60,7 @@ static void test_half_float(void **state)
 
 static void test_find_data(void **state)
 {
+    (void)state;
     char out[1024], err[1024];
     assert_int_equal(pipeline_find_data("/etc/hostname-not-checked", out, sizeof out, err, sizeof err), 0);
     assert_string_equal(out, "/etc/hostname-not-checked");
@@ -121,6 +124,7 @@ static void eval_with(sg_graph *g, sg_params *p, int k, float v, float *out)
 
 static void test_inactive_params_change_nothing(void **state)
 {
+    (void)state;
     sg_error err;
     sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
     assert_non_null(g);
