@@ -15,6 +15,8 @@ static sg_params names;
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
+    (void)argc;
+    (void)argv;
     sg_error err;
     sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
     if (!g || sg_params_from_graph(g, &names, &err) != 0) {
