@@ -20,9 +20,8 @@
  * (Detail + 1, Dimension = -ln(Roughness) / ln(Lacunarity)). In SG_BLENDER_3 this file
  * computes what Blender 3.4 renders for that translated node. What 3.4 cannot express
  * (Distortion or Color on a Musgrave translation, fBM normalized with lacunarity != 2,
- * ...) is listed in compat_noise.py; the kernel still returns 3.4's value for the
- * translated node (Color = Fac on a Musgrave), and the compiler is expected to reject
- * such nodes in 3.x mode.
+ * ...) is listed in compat_noise.py; nothing refuses such nodes in 3.x mode: the kernel
+ * returns what 3.4 renders for the translated node (Color = Fac on a Musgrave).
  *
  * Speed. A point's fractal octaves (and Color's two extra fractals) are independent
  * Perlin evaluations at points known in advance, so each point first lays out all its
