@@ -267,10 +267,11 @@ int cmd_describe(int argc, char **argv)
     opt.threads = threads < 1 ? 1 : (int)threads;
     f.mnv2_opt.threads = opt.threads;
     /* Our workers each run single-threaded sgemms; OpenBLAS's own threads would only
-     * fight them for the same cores. MobileNetV2 pins it even with one worker: a threaded
-     * OpenBLAS splits its sums differently, and the bits must not depend on --threads. */
-    if (opt.threads > 1 || f.mobilenet)
-        openblas_set_num_threads(1);
+     * fight them for the same cores. Pinned with one worker too: a threaded OpenBLAS
+     * splits its sums differently on some CPUs (VGG19's Grams from conv3 on differed
+     * between --threads 1 and 2 on an AVX-512 machine), and the bits must not depend on
+     * --threads. datagen, evaluate and predict pin it the same way. */
+    openblas_set_num_threads(1);
 
     rc = EXIT_FAILURE_WORK;
     if (f.mobilenet) {

@@ -33,6 +33,10 @@
 
 #include "pipeline/pipeline_internal.h"
 
+/* After our headers: OpenBLAS's cblas.h brings <complex.h>, whose macro I would rename
+ * sg_geometry_batch.I. */
+#include <cblas.h>
+
 #define PREDICT_FORMAT "imsynth-predict/1"
 
 void predict_options_default(predict_options *o)
@@ -423,6 +427,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     predictor *pred = NULL;
     image raw = {0}, input = {0}, preview = {0};
     scorer sc = {.o = o};
+    /* Our workers each run single-threaded sgemms; a threaded OpenBLAS would also make
+     * the descriptors depend on --threads (cmd_describe.c). */
+    openblas_set_num_threads(1);
     render_scene *scenes[2] = {NULL, NULL};
     float *cand_params = NULL, *best = NULL;
     candidate *cands = NULL;

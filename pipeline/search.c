@@ -19,6 +19,8 @@
 
 #include "pipeline/pipeline_internal.h"
 
+#include <cblas.h> /* after our headers: its <complex.h> defines I */
+
 typedef struct hit {
     long long id;
     int view;
@@ -273,6 +275,7 @@ int search_run(const search_options *o, char *err, size_t errlen)
     int n = 0, n_params = 0, rc = -1;
     predictor *pred = NULL;
     dataset *ds = NULL;
+    openblas_set_num_threads(1); /* as predict_run: descriptors independent of --threads */
     const char *const *names = NULL;
     cJSON *list = NULL;
     if (pipeline_read_user_image(o->image_path, &raw, err, errlen))
