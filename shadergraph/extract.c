@@ -37,6 +37,7 @@ typedef struct flat {
     bool failed;
     const sg_graph *src;
     int n_contexts; /* group instances made so far: bounded like nodes */
+    int depth;      /* resolve_out calls on the stack: at most SG_MAX_RESOLVE_DEPTH */
 } flat;
 
 static char *dup_str(const char *s)
@@ -245,7 +246,31 @@ static source convert_at_interface(flat *f, source s, sg_socket_type to, const c
     return r;
 }
 
+static source resolve_out_step(flat *f, context *c, int node, int socket);
+
+/* What feeds output `socket` of `node`: a node of the flat graph or a constant. The
+ * walk recurses through reroutes and group interfaces (a typed node is looked up, not
+ * walked), so its depth is how many of those one link path crosses: bounded, as SQLite
+ * bounds expression depth, so that the stack is (a chain of 20,000 pass-through groups
+ * overflowed it in a debug build). */
 static source resolve_out(flat *f, context *c, int node, int socket)
+{
+    source none = {.is_const = true, .node = -1};
+    if (f->failed)
+        return none;
+    if (f->depth >= SG_MAX_RESOLVE_DEPTH) {
+        sg_error_set(f->err, "a link path crosses more than %d reroutes and group interfaces "
+                             "(FORMAT.md, Limits)", SG_MAX_RESOLVE_DEPTH);
+        f->failed = true;
+        return none;
+    }
+    f->depth++;
+    source s = resolve_out_step(f, c, node, socket);
+    f->depth--;
+    return s;
+}
+
+static source resolve_out_step(flat *f, context *c, int node, int socket)
 {
     source none = {.is_const = true, .node = -1};
     if (f->failed)

@@ -74,6 +74,7 @@ typedef struct sg_graph sg_graph;
 #define SG_MAX_TREE_NODES 10000             /* nodes in the main tree or in one group */
 #define SG_MAX_TREE_LINKS 40000             /* links in one tree */
 #define SG_MAX_GROUPS 4096                  /* groups in a graph */
+#define SG_MAX_RESOLVE_DEPTH 1000           /* reroutes and group interfaces on one path */
 #define SG_MAX_FLAT_NODES 20000             /* nodes (and group instances) once every
                                              * group is inlined */
 
