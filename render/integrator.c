@@ -26,6 +26,8 @@
  */
 #include "render/render_internal.h"
 
+#include <assert.h>
+
 static float power_heuristic(float a, float b)
 {
     float a2 = a * a, b2 = b * b;
@@ -165,6 +167,8 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
     float albedo[3];
     principled_albedo_uncut(&bsdf, albedo);
     int n = s->light_samples > 0 ? s->light_samples : 1;
+    /* Sample j's sub-index below is sample * 64 + j: render.c refuses more light samples. */
+    assert(n <= 64);
     float acc[3] = {0, 0, 0}, cut[3] = {0, 0, 0};
     for (int j = 0; j < n; j++) {
         uint32_t sub = sample * 64u + (uint32_t)j; /* n <= 64 */

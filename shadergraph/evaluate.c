@@ -12,6 +12,7 @@
  * partial batch). Geometry registers at offset 0 point straight at the caller's
  * arrays; offset ones are computed per batch (value + differential).
  */
+#include <assert.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -205,6 +206,8 @@ static void copy_outputs(const sg_evaluator *e, int n, float *const *out, int at
 
 void sg_evaluate(sg_evaluator *e, const sg_geometry_batch *geom, float *const *out)
 {
+    /* The registers hold max_batch points (sg_evaluator_new). */
+    assert(geom->n >= 0 && geom->n <= e->max_batch);
     run_program(e, geom);
     copy_outputs(e, geom->n, out, 0, geom->n);
 }
