@@ -36,6 +36,10 @@ static const char *const help =
     "                          stay all of them (learning curves compare like with like)\n"
     "  -o, --output MODEL_DIR  the model directory (must not exist)\n"
     "  --components K          principal components fed to the network (default 256)\n"
+    "  --per-tap               split the components equally among the descriptor's taps,\n"
+    "                          each a PCA of that tap's values alone (default: one PCA of\n"
+    "                          all of them, which spends most components on the big deep\n"
+    "                          taps)\n"
     "  --hidden W1-W2-...      hidden layer widths (default 1024-1024)\n"
     "  --epochs E              default 60\n"
     "  --batch B               default 128\n"
@@ -111,6 +115,10 @@ int cmd_fit_predictor(int argc, char **argv)
         }
         if (!strcmp(a, "--half")) {
             o.half = 1;
+            continue;
+        }
+        if (!strcmp(a, "--per-tap")) {
+            o.per_tap = 1;
             continue;
         }
         if (i + 1 >= argc) {

@@ -363,6 +363,8 @@ typedef struct predictor_fit_options {
     long long max_ids;            /* 0: every sample; else the first max_ids ids */
     const char *out_dir;          /* must not exist */
     int components;               /* PCA components (the network's inputs) */
+    int per_tap;                  /* split the components among the descriptor's taps, a
+                                   * PCA of each tap's values alone (predictor_fit.c) */
     int half;                     /* store the PCA basis and the catalogue's reduced
                                    * descriptors as float16 (the basis rounded before it is
                                    * used, so training and prediction see the same values):

@@ -190,6 +190,69 @@ done:
     return rc;
 }
 
+/*
+ * Per-tap PCA. The descriptor concatenates the Grams of a few taps of very different
+ * sizes (MobileNetV2's: conv1's 528 values, the colours, beside block_6_expand's 18,528),
+ * and one PCA of all the standardised values spends its components where most values are,
+ * on the deep taps. Here each tap gets an equal share of the k components (the first
+ * k % taps get one more), fitted on its own columns. The result is the same k x d basis a
+ * global PCA gives, zero outside each component's tap, so the model's format and the
+ * prediction path do not change. X (n x d) is standardised, so each block is centred.
+ */
+static int pca_fit_per_tap(const float *X, size_t n, size_t d, const char *config, int k,
+                           uint64_t seed, int threads, float *comp, float *var, char *msg,
+                           size_t len)
+{
+    cJSON *cfg = cJSON_Parse(config);
+    const cJSON *feat = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(cfg, "descriptor"), "features");
+    datagen_descriptor kind = !cJSON_IsString(feat)                    ? DATAGEN_DESC_NONE
+                              : !strcmp(feat->valuestring, "mobilenetv2") ? DATAGEN_DESC_MOBILENETV2_F16
+                              : !strcmp(feat->valuestring, "vgg19")       ? DATAGEN_DESC_VGG19_F16
+                                                                          : DATAGEN_DESC_NONE;
+    cJSON_Delete(cfg);
+    if (kind == DATAGEN_DESC_NONE)
+        return pipeline_error(msg, len, "per-tap reduction: the dataset's descriptor is unknown");
+    pipeline_descriptor *pd = pipeline_descriptor_create(kind, msg, len);
+    if (!pd)
+        return -1;
+    size_t off[65];
+    int taps = pipeline_descriptor_layers(pd, off);
+    pipeline_descriptor_free(pd);
+    if (off[taps] != d)
+        return pipeline_error(msg, len, "per-tap reduction: the dataset's descriptors have %zu "
+                                        "values, its taps %zu",
+                              d, off[taps]);
+    if (k < taps)
+        return pipeline_error(msg, len, "per-tap reduction: %d components for %d taps", k, taps);
+    memset(comp, 0, (size_t)k * d * sizeof *comp);
+    int first = 0, rc = 0;
+    for (int t = 0; t < taps && !rc; t++) {
+        size_t w = off[t + 1] - off[t];
+        int kt = k / taps + (t < k % taps);
+        if ((size_t)kt > w || (size_t)kt >= n) {
+            rc = pipeline_error(msg, len, "per-tap reduction: %d components from tap %d's %zu "
+                                          "values and %zu rows",
+                                kt, t, w, n);
+            break;
+        }
+        float *block = malloc(n * w * sizeof *block), *bc = malloc((size_t)kt * w * sizeof *bc);
+        if (!block || !bc)
+            rc = pipeline_error(msg, len, "out of memory for tap %d", t);
+        for (size_t i = 0; !rc && i < n; i++)
+            memcpy(block + i * w, X + i * d + off[t], w * sizeof *block);
+        if (!rc)
+            rc = nn_pca_fit(block, (int)n, (int)w, kt, 2, seed + (uint64_t)t, threads, bc,
+                            var + first, msg, len);
+        for (int c = 0; !rc && c < kt; c++)
+            memcpy(comp + (size_t)(first + c) * d + off[t], bc + (size_t)c * w, w * sizeof *bc);
+        free(block);
+        free(bc);
+        first += kt;
+    }
+    return rc;
+}
+
 /* The parts of two dataset configs that must agree for a validation set: the super-shader
  * and the descriptor (the preset, augmentation and ids may differ). */
 static int configs_compatible(const char *a, const char *b, char *why, size_t len)
@@ -382,6 +445,8 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     cJSON_AddNumberToObject(j, "train_rows", (double)n_train);
     cJSON_AddNumberToObject(j, "val_rows", (double)n_val);
     cJSON_AddNumberToObject(j, "components", o->components);
+    if (o->per_tap)
+        cJSON_AddStringToObject(j, "reduction", "per-tap");
     if (o->half)
         cJSON_AddBoolToObject(j, "half", 1);
     if (o->catalogue)
@@ -517,7 +582,10 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON_AddStringToObject(tr, "signed_log", "t = sign(x) log1p(|x| / s), s = mean |x|");
     cJSON_AddStringToObject(tr, "standardise", "(t - mean) / std over the training rows");
     cJSON_AddNumberToObject(tr, "components", o->components);
-    cJSON_AddStringToObject(tr, "pca", "randomized SVD, 2 power iterations, whitened");
+    cJSON_AddStringToObject(tr, "pca", o->per_tap ? "per tap: each tap's share of the "
+                                                    "components from its own values; randomized "
+                                                    "SVD, 2 power iterations, whitened"
+                                                  : "randomized SVD, 2 power iterations, whitened");
     cJSON *net = cJSON_AddObjectToObject(j, "network");
     cJSON_AddStringToObject(net, "arch", arch);
     cJSON_AddStringToObject(net, "heads", heads);
@@ -688,8 +756,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
             pipeline_error(err, errlen, "out of memory");
             goto done;
         }
-        if (nn_pca_fit(train.X, (int)train.n, (int)d, k, 2, o->seed, o->threads, comp, var, msg,
-                       sizeof msg)) {
+        if (o->per_tap ? pca_fit_per_tap(train.X, train.n, d, config, k, o->seed, o->threads,
+                                         comp, var, msg, sizeof msg)
+                       : nn_pca_fit(train.X, (int)train.n, (int)d, k, 2, o->seed, o->threads,
+                                    comp, var, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", msg);
             goto done;
         }

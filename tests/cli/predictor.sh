@@ -138,4 +138,22 @@ assert c['catalogue.params']['shape'][0] == 5
 check "float16 basis and catalogue, 5 catalogue rows" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mh" --top-k 3 --nearest 5 --hypotheses "$tmp/hh.json" > /dev/null
 check "a --half model predicts and retrieves" 0 $?
+# --per-tap: each of the 5 MobileNetV2 taps gets its share of the 8 components (2,2,2,1,1),
+# each component zero outside its own tap's values and not zero inside them
+"$imsynth" fit-predictor $fit --epochs 2 --per-tap -o "$tmp/mt"; check "fit --per-tap" 0 $?
+py "
+import json, struct
+b = open('$tmp/mt/transform.safetensors', 'rb').read(); n = struct.unpack('<Q', b[:8])[0]
+h = json.loads(b[8:8 + n]); t = h['pca.components']
+assert t['dtype'] == 'F32' and t['shape'] == [8, 38808], t
+lo, hi = t['data_offsets']; c = struct.unpack('<%df' % (8 * 38808), b[8 + n + lo:8 + n + hi])
+taps = [0, 528, 5184, 15624, 34152, 38808]; owner = [0, 0, 1, 1, 2, 2, 3, 4]
+for k in range(8):
+    row = c[k * 38808:(k + 1) * 38808]; a, z = taps[owner[k]], taps[owner[k] + 1]
+    assert any(row[a:z]) and not any(row[:a]) and not any(row[z:]), k
+assert json.load(open('$tmp/mt/model.json'))['training']['reduction'] == 'per-tap'
+"
+check "per-tap basis: each component within its own tap" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/mt" -o "$tmp/pt.json"
+check "a --per-tap model predicts" 0 $?
 finish
