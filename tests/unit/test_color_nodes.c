@@ -12,91 +12,9 @@
 
 #include <cmocka.h>
 
-#include "shadergraph/node_type.h"
+#include "kernel_call.h"
 
 #define MAXN 8
-
-/* One kernel call on n points. Inputs are given per socket as planar arrays (NULL: use
- * the socket's default, broadcast); all outputs are requested. */
-typedef struct call {
-    const sg_node_type *type;
-    int n;
-    int prop[8];
-    sg_blender_mode blender;
-    const sg_color_ramp *ramp;
-    float in[12][3 * MAXN];
-    float out[6][3 * MAXN];
-} call;
-
-static int width(sg_socket_type t)
-{
-    return (t == SG_SOCKET_VECTOR || t == SG_SOCKET_COLOR) ? 3 : 1;
-}
-
-static void call_init(call *c, const char *idname, int n)
-{
-    memset(c, 0, sizeof *c);
-    c->type = sg_node_type_find(idname);
-    assert_non_null(c->type);
-    c->n = n;
-    c->blender = SG_BLENDER_4;
-    for (int p = 0; p < c->type->n_props; p++)
-        c->prop[p] = c->type->props[p].default_value;
-    for (int k = 0; k < c->type->n_inputs; k++) {
-        const sg_socket_def *s = &c->type->inputs[k];
-        for (int ch = 0; ch < width(s->type); ch++)
-            for (int i = 0; i < n; i++)
-                c->in[k][ch * n + i] = s->default_value[ch];
-    }
-}
-
-static void set_input(call *c, const char *identifier, int i, float x, float y, float z)
-{
-    int k = sg_node_type_input_index(c->type, identifier);
-    assert_true(k >= 0);
-    c->in[k][i] = x;
-    if (width(c->type->inputs[k].type) == 3) {
-        c->in[k][c->n + i] = y;
-        c->in[k][2 * c->n + i] = z;
-    }
-}
-
-static void set_prop(call *c, const char *name, const char *value)
-{
-    int p = sg_node_type_prop_index(c->type, name);
-    assert_true(p >= 0);
-    const sg_prop_def *d = &c->type->props[p];
-    if (d->kind == SG_PROP_BOOL) {
-        c->prop[p] = strcmp(value, "true") == 0;
-        return;
-    }
-    for (int v = 0; d->values[v]; v++)
-        if (strcmp(d->values[v], value) == 0) {
-            c->prop[p] = v;
-            return;
-        }
-    fail_msg("no value %s for %s", value, name);
-}
-
-static void run(call *c)
-{
-    const float *in[12];
-    float *out[6];
-    for (int k = 0; k < 12; k++)
-        in[k] = c->in[k];
-    for (int k = 0; k < 6; k++)
-        out[k] = c->out[k];
-    sg_kernel_args a = {.n = c->n, .blender = c->blender, .prop = c->prop, .ramp = c->ramp,
-                        .in = in, .out = out};
-    c->type->kernel(&a);
-}
-
-static float out_at(const call *c, const char *identifier, int i, int ch)
-{
-    int k = sg_node_type_output_index(c->type, identifier);
-    assert_true(k >= 0);
-    return c->out[k][ch * c->n + i];
-}
 
 /* ---- Color Ramp ------------------------------------------------------------------- */
 
@@ -125,17 +43,17 @@ static void test_ramp_constant_step(void **state)
     const float white4[4] = {0.0f, 1.0f, 1.0f, 1.0f};
     const float white3[4] = {0.0f, 0.0f, 0.0f, 1.0f};
     for (int mode = 0; mode < 2; mode++) {
-        call c;
-        call_init(&c, "ShaderNodeValToRGB", 4);
+        kernel_call c;
+        kc_init(&c, "ShaderNodeValToRGB", 4);
         c.ramp = &ramp;
         c.blender = mode ? SG_BLENDER_3 : SG_BLENDER_4;
         for (int i = 0; i < 4; i++)
-            set_input(&c, "Fac", i, fac[i], 0, 0);
-        run(&c);
+            kc_set(&c, "Fac", i, fac[i], 0, 0);
+        kc_run(&c);
         for (int i = 0; i < 4; i++) {
             float want = mode ? white3[i] : white4[i];
-            assert_float_equal(out_at(&c, "Color", i, 0), want, 0.0f);
-            assert_float_equal(out_at(&c, "Alpha", i, 0), 1.0f, 0.0f);
+            assert_float_equal(kc_out(&c, "Color", i, 0), want, 0.0f);
+            assert_float_equal(kc_out(&c, "Alpha", i, 0), 1.0f, 0.0f);
         }
     }
 }
@@ -148,17 +66,17 @@ static void test_ramp_linear_identity(void **state)
     sg_color_ramp ramp = two_stop_ramp(2 /* LINEAR */, 1.0f);
     const float fac[6] = {-0.5f, 0.0f, 0.123f, 0.5f, 0.987f, 3.0f};
     for (int mode = 0; mode < 2; mode++) {
-        call c;
-        call_init(&c, "ShaderNodeValToRGB", 6);
+        kernel_call c;
+        kc_init(&c, "ShaderNodeValToRGB", 6);
         c.ramp = &ramp;
         c.blender = mode ? SG_BLENDER_3 : SG_BLENDER_4;
         for (int i = 0; i < 6; i++)
-            set_input(&c, "Fac", i, fac[i], 0, 0);
-        run(&c);
+            kc_set(&c, "Fac", i, fac[i], 0, 0);
+        kc_run(&c);
         for (int i = 0; i < 6; i++) {
             float want = fminf(fmaxf(fac[i], 0.0f), 1.0f);
             for (int ch = 0; ch < 3; ch++)
-                assert_float_equal(out_at(&c, "Color", i, ch), want, 1e-6f);
+                assert_float_equal(kc_out(&c, "Color", i, ch), want, 1e-6f);
         }
     }
 }
@@ -176,14 +94,14 @@ static void test_ramp_hsv_far(void **state)
         ramp.color[s][1] = 0.0f;
         ramp.color[s][2] = 0.0f;
     }
-    call c;
-    call_init(&c, "ShaderNodeValToRGB", 1);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeValToRGB", 1);
     c.ramp = &ramp;
-    set_input(&c, "Fac", 0, 0.5f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Color", 0, 0), 0.0f, 1e-3f);
-    assert_float_equal(out_at(&c, "Color", 0, 1), 1.0f, 1e-3f);
-    assert_float_equal(out_at(&c, "Color", 0, 2), 1.0f, 1e-3f);
+    kc_set(&c, "Fac", 0, 0.5f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Color", 0, 0), 0.0f, 1e-3f);
+    assert_float_equal(kc_out(&c, "Color", 0, 1), 1.0f, 1e-3f);
+    assert_float_equal(kc_out(&c, "Color", 0, 2), 1.0f, 1e-3f);
 }
 
 /* Blender stores ramp colours clamped below at 0: a negative channel acts as 0. */
@@ -194,13 +112,13 @@ static void test_ramp_negative_colour_is_zero(void **state)
     ramp.color[0][0] = -2.0f;
     ramp.color[1][0] = -1.0f;
     ramp.color[1][1] = 3.0f;
-    call c;
-    call_init(&c, "ShaderNodeValToRGB", 1);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeValToRGB", 1);
     c.ramp = &ramp;
-    set_input(&c, "Fac", 0, 0.5f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Color", 0, 0), 0.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Color", 0, 1), 1.5f, 1e-6f);
+    kc_set(&c, "Fac", 0, 0.5f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Color", 0, 0), 0.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Color", 0, 1), 1.5f, 1e-6f);
 }
 
 /* ---- Mix ---------------------------------------------------------------------------- */
@@ -210,45 +128,45 @@ static void test_ramp_negative_colour_is_zero(void **state)
 static void test_mix_factor_clamping(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c, "ShaderNodeMix", 1);
-    set_prop(&c, "data_type", "RGBA");
-    set_prop(&c, "clamp_factor", "false");
-    set_input(&c, "Factor_Float", 0, 2.0f, 0, 0);
-    set_input(&c, "A_Color", 0, 0.25f, 0.5f, 0.0f);
-    set_input(&c, "B_Color", 0, 0.5f, 0.5f, 1.0f);
-    run(&c);
-    assert_float_equal(out_at(&c, "Result_Color", 0, 0), 0.75f, 1e-6f);
-    assert_float_equal(out_at(&c, "Result_Color", 0, 2), 2.0f, 1e-6f);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeMix", 1);
+    kc_set_prop(&c, "data_type", "RGBA");
+    kc_set_prop(&c, "clamp_factor", "false");
+    kc_set(&c, "Factor_Float", 0, 2.0f, 0, 0);
+    kc_set(&c, "A_Color", 0, 0.25f, 0.5f, 0.0f);
+    kc_set(&c, "B_Color", 0, 0.5f, 0.5f, 1.0f);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result_Color", 0, 0), 0.75f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Result_Color", 0, 2), 2.0f, 1e-6f);
 
-    set_prop(&c, "clamp_result", "true");
-    run(&c);
-    assert_float_equal(out_at(&c, "Result_Color", 0, 2), 1.0f, 0.0f);
+    kc_set_prop(&c, "clamp_result", "true");
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result_Color", 0, 2), 1.0f, 0.0f);
 
-    call l;
-    call_init(&l, "ShaderNodeMixRGB", 1);
-    set_input(&l, "Fac", 0, 2.0f, 0, 0);
-    set_input(&l, "Color1", 0, 0.25f, 0.5f, 0.0f);
-    set_input(&l, "Color2", 0, 0.5f, 0.5f, 1.0f);
-    run(&l);
-    assert_float_equal(out_at(&l, "Color", 0, 0), 0.5f, 1e-6f);
-    assert_float_equal(out_at(&l, "Color", 0, 2), 1.0f, 1e-6f);
+    kernel_call l;
+    kc_init(&l, "ShaderNodeMixRGB", 1);
+    kc_set(&l, "Fac", 0, 2.0f, 0, 0);
+    kc_set(&l, "Color1", 0, 0.25f, 0.5f, 0.0f);
+    kc_set(&l, "Color2", 0, 0.5f, 0.5f, 1.0f);
+    kc_run(&l);
+    assert_float_equal(kc_out(&l, "Color", 0, 0), 0.5f, 1e-6f);
+    assert_float_equal(kc_out(&l, "Color", 0, 2), 1.0f, 1e-6f);
 }
 
 static void test_mix_vector_non_uniform(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c, "ShaderNodeMix", 1);
-    set_prop(&c, "data_type", "VECTOR");
-    set_prop(&c, "factor_mode", "NON_UNIFORM");
-    set_input(&c, "Factor_Vector", 0, 0.0f, 0.5f, 1.0f);
-    set_input(&c, "A_Vector", 0, 1.0f, 1.0f, 1.0f);
-    set_input(&c, "B_Vector", 0, 3.0f, 3.0f, 3.0f);
-    run(&c);
-    assert_float_equal(out_at(&c, "Result_Vector", 0, 0), 1.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Result_Vector", 0, 1), 2.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Result_Vector", 0, 2), 3.0f, 0.0f);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeMix", 1);
+    kc_set_prop(&c, "data_type", "VECTOR");
+    kc_set_prop(&c, "factor_mode", "NON_UNIFORM");
+    kc_set(&c, "Factor_Vector", 0, 0.0f, 0.5f, 1.0f);
+    kc_set(&c, "A_Vector", 0, 1.0f, 1.0f, 1.0f);
+    kc_set(&c, "B_Vector", 0, 3.0f, 3.0f, 3.0f);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result_Vector", 0, 0), 1.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Result_Vector", 0, 1), 2.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Result_Vector", 0, 2), 3.0f, 0.0f);
 }
 
 /* ---- Invert, Combine/Separate Color --------------------------------------------------- */
@@ -256,17 +174,17 @@ static void test_mix_vector_non_uniform(void **state)
 static void test_invert(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c, "ShaderNodeInvert", 2);
-    set_input(&c, "Color", 0, 0.2f, 1.5f, -1.0f);
-    set_input(&c, "Color", 1, 0.2f, 1.5f, -1.0f);
-    set_input(&c, "Fac", 1, 0.5f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Color", 0, 0), 0.8f, 1e-6f);
-    assert_float_equal(out_at(&c, "Color", 0, 1), -0.5f, 1e-6f);
-    assert_float_equal(out_at(&c, "Color", 0, 2), 2.0f, 1e-6f);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeInvert", 2);
+    kc_set(&c, "Color", 0, 0.2f, 1.5f, -1.0f);
+    kc_set(&c, "Color", 1, 0.2f, 1.5f, -1.0f);
+    kc_set(&c, "Fac", 1, 0.5f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Color", 0, 0), 0.8f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Color", 0, 1), -0.5f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Color", 0, 2), 2.0f, 1e-6f);
     for (int ch = 0; ch < 3; ch++)
-        assert_float_equal(out_at(&c, "Color", 1, ch), 0.5f, 1e-6f);
+        assert_float_equal(kc_out(&c, "Color", 1, ch), 0.5f, 1e-6f);
 }
 
 /* Separate then Combine in HSV and HSL gives the colour back (in gamut). Cycles' HSV
@@ -277,35 +195,35 @@ static void test_color_round_trip_and_unwrapped_hue(void **state)
     const float rgb[3][3] = {{0.9f, 0.2f, 0.4f}, {0.1f, 0.7f, 0.3f}, {0.25f, 0.25f, 0.8f}};
     for (int mode = 1; mode <= 2; mode++) {
         const char *mode_name = mode == 1 ? "HSV" : "HSL";
-        call s;
-        call_init(&s, "ShaderNodeSeparateColor", 3);
-        set_prop(&s, "mode", mode_name);
+        kernel_call s;
+        kc_init(&s, "ShaderNodeSeparateColor", 3);
+        kc_set_prop(&s, "mode", mode_name);
         for (int i = 0; i < 3; i++)
-            set_input(&s, "Color", i, rgb[i][0], rgb[i][1], rgb[i][2]);
-        run(&s);
-        call c;
-        call_init(&c, "ShaderNodeCombineColor", 3);
-        set_prop(&c, "mode", mode_name);
+            kc_set(&s, "Color", i, rgb[i][0], rgb[i][1], rgb[i][2]);
+        kc_run(&s);
+        kernel_call c;
+        kc_init(&c, "ShaderNodeCombineColor", 3);
+        kc_set_prop(&c, "mode", mode_name);
         for (int i = 0; i < 3; i++) {
-            set_input(&c, "Red", i, out_at(&s, "Red", i, 0), 0, 0);
-            set_input(&c, "Green", i, out_at(&s, "Green", i, 0), 0, 0);
-            set_input(&c, "Blue", i, out_at(&s, "Blue", i, 0), 0, 0);
+            kc_set(&c, "Red", i, kc_out(&s, "Red", i, 0), 0, 0);
+            kc_set(&c, "Green", i, kc_out(&s, "Green", i, 0), 0, 0);
+            kc_set(&c, "Blue", i, kc_out(&s, "Blue", i, 0), 0, 0);
         }
-        run(&c);
+        kc_run(&c);
         for (int i = 0; i < 3; i++)
             for (int ch = 0; ch < 3; ch++)
-                assert_float_equal(out_at(&c, "Color", i, ch), rgb[i][ch], 1e-5f);
+                assert_float_equal(kc_out(&c, "Color", i, ch), rgb[i][ch], 1e-5f);
     }
-    call c;
-    call_init(&c, "ShaderNodeCombineColor", 1);
-    set_prop(&c, "mode", "HSV");
-    set_input(&c, "Red", 0, 1.25f, 0, 0);
-    set_input(&c, "Green", 0, 1.0f, 0, 0);
-    set_input(&c, "Blue", 0, 1.0f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Color", 0, 0), 1.0f, 1e-6f);
-    assert_float_equal(out_at(&c, "Color", 0, 1), 0.0f, 1e-6f);
-    assert_float_equal(out_at(&c, "Color", 0, 2), 0.5f, 1e-6f);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeCombineColor", 1);
+    kc_set_prop(&c, "mode", "HSV");
+    kc_set(&c, "Red", 0, 1.25f, 0, 0);
+    kc_set(&c, "Green", 0, 1.0f, 0, 0);
+    kc_set(&c, "Blue", 0, 1.0f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Color", 0, 0), 1.0f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Color", 0, 1), 0.0f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Color", 0, 2), 0.5f, 1e-6f);
 }
 
 /* ---- Mapping ---------------------------------------------------------------------------- */
@@ -315,37 +233,37 @@ static void test_mapping_inverse(void **state)
 {
     (void)state;
     const float v[3] = {0.3f, -1.2f, 2.5f};
-    call p;
-    call_init(&p, "ShaderNodeMapping", 1);
-    set_input(&p, "Vector", 0, v[0], v[1], v[2]);
-    set_input(&p, "Location", 0, 1.0f, -2.0f, 0.5f);
-    set_input(&p, "Rotation", 0, 0.4f, -1.1f, 2.3f);
-    set_input(&p, "Scale", 0, 2.0f, 0.5f, -3.0f);
-    run(&p);
-    call t = p;
-    set_prop(&t, "vector_type", "TEXTURE");
-    set_input(&t, "Vector", 0, out_at(&p, "Vector", 0, 0), out_at(&p, "Vector", 0, 1),
-              out_at(&p, "Vector", 0, 2));
-    run(&t);
+    kernel_call p;
+    kc_init(&p, "ShaderNodeMapping", 1);
+    kc_set(&p, "Vector", 0, v[0], v[1], v[2]);
+    kc_set(&p, "Location", 0, 1.0f, -2.0f, 0.5f);
+    kc_set(&p, "Rotation", 0, 0.4f, -1.1f, 2.3f);
+    kc_set(&p, "Scale", 0, 2.0f, 0.5f, -3.0f);
+    kc_run(&p);
+    kernel_call t = p;
+    kc_set_prop(&t, "vector_type", "TEXTURE");
+    kc_set(&t, "Vector", 0, kc_out(&p, "Vector", 0, 0), kc_out(&p, "Vector", 0, 1),
+              kc_out(&p, "Vector", 0, 2));
+    kc_run(&t);
     for (int ch = 0; ch < 3; ch++)
-        assert_float_equal(out_at(&t, "Vector", 0, ch), v[ch], 1e-5f);
+        assert_float_equal(kc_out(&t, "Vector", 0, ch), v[ch], 1e-5f);
 
-    call nrm = p;
-    set_prop(&nrm, "vector_type", "NORMAL");
-    run(&nrm);
+    kernel_call nrm = p;
+    kc_set_prop(&nrm, "vector_type", "NORMAL");
+    kc_run(&nrm);
     float len2 = 0.0f;
     for (int ch = 0; ch < 3; ch++)
-        len2 += out_at(&nrm, "Vector", 0, ch) * out_at(&nrm, "Vector", 0, ch);
+        len2 += kc_out(&nrm, "Vector", 0, ch) * kc_out(&nrm, "Vector", 0, ch);
     assert_float_equal(len2, 1.0f, 1e-5f);
 
-    call vec = p;
-    set_prop(&vec, "vector_type", "VECTOR");
-    run(&vec);
-    set_input(&vec, "Location", 0, 0.0f, 0.0f, 0.0f);
-    call vec0 = vec;
-    run(&vec0);
+    kernel_call vec = p;
+    kc_set_prop(&vec, "vector_type", "VECTOR");
+    kc_run(&vec);
+    kc_set(&vec, "Location", 0, 0.0f, 0.0f, 0.0f);
+    kernel_call vec0 = vec;
+    kc_run(&vec0);
     for (int ch = 0; ch < 3; ch++)
-        assert_float_equal(out_at(&vec, "Vector", 0, ch), out_at(&vec0, "Vector", 0, ch), 0.0f);
+        assert_float_equal(kc_out(&vec, "Vector", 0, ch), kc_out(&vec0, "Vector", 0, ch), 0.0f);
 }
 
 int main(void)

@@ -14,108 +14,27 @@
 
 #include <cmocka.h>
 
-#include "shadergraph/node_type.h"
+#include "kernel_call.h"
 
 #define MAXN 8
-
-typedef struct call {
-    const sg_node_type *type;
-    int n;
-    int prop[8];
-    sg_blender_mode blender;
-    float in[12][3 * MAXN];
-    float out[4][3 * MAXN];
-} call;
-
-static int width(sg_socket_type t) { return t == SG_SOCKET_VECTOR ? 3 : 1; }
-
-static void call_init(call *c, const char *idname, int n)
-{
-    memset(c, 0, sizeof *c);
-    c->type = sg_node_type_find(idname);
-    assert_non_null(c->type);
-    c->n = n;
-    c->blender = SG_BLENDER_4;
-    for (int p = 0; p < c->type->n_props; p++)
-        c->prop[p] = c->type->props[p].default_value;
-    for (int k = 0; k < c->type->n_inputs; k++) {
-        const sg_socket_def *s = &c->type->inputs[k];
-        for (int ch = 0; ch < width(s->type); ch++)
-            for (int i = 0; i < n; i++)
-                c->in[k][ch * n + i] = s->default_value[ch];
-    }
-}
-
-static void set_input(call *c, const char *identifier, int i, float x, float y, float z)
-{
-    int k = sg_node_type_input_index(c->type, identifier);
-    assert_true(k >= 0);
-    c->in[k][i] = x;
-    if (width(c->type->inputs[k].type) == 3) {
-        c->in[k][c->n + i] = y;
-        c->in[k][2 * c->n + i] = z;
-    }
-}
-
-static int enum_index(const call *c, const char *prop, const char *value)
-{
-    int p = sg_node_type_prop_index(c->type, prop);
-    assert_true(p >= 0);
-    for (int v = 0; c->type->props[p].values[v]; v++)
-        if (strcmp(c->type->props[p].values[v], value) == 0)
-            return v;
-    fail_msg("no value %s for %s", value, prop);
-    return -1;
-}
-
-static void set_enum(call *c, const char *prop, const char *value)
-{
-    c->prop[sg_node_type_prop_index(c->type, prop)] = enum_index(c, prop, value);
-}
-
-static void set_bool(call *c, const char *prop, int value)
-{
-    int p = sg_node_type_prop_index(c->type, prop);
-    assert_true(p >= 0);
-    c->prop[p] = value;
-}
-
-static void run(call *c)
-{
-    const float *in[12];
-    float *out[4];
-    for (int k = 0; k < 12; k++)
-        in[k] = c->in[k];
-    for (int k = 0; k < 4; k++)
-        out[k] = c->out[k];
-    sg_kernel_args a = {.n = c->n, .blender = c->blender, .prop = c->prop, .in = in, .out = out};
-    c->type->kernel(&a);
-}
-
-static float out_at(const call *c, const char *identifier, int i, int ch)
-{
-    int k = sg_node_type_output_index(c->type, identifier);
-    assert_true(k >= 0);
-    return c->out[k][ch * c->n + i];
-}
 
 /* Math `op` on up to MAXN (a, b, c) triples; results in r. */
 static void math_op(const char *op, int clamp, int n, const float (*abc)[3], float *r,
                     sg_blender_mode mode)
 {
-    call c;
-    call_init(&c, "ShaderNodeMath", n);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeMath", n);
     c.blender = mode;
-    set_enum(&c, "operation", op);
-    set_bool(&c, "use_clamp", clamp);
+    kc_set_prop(&c, "operation", op);
+    kc_set_prop(&c, "use_clamp", clamp ? "true" : "false");
     for (int i = 0; i < n; i++) {
-        set_input(&c, "Value", i, abc[i][0], 0, 0);
-        set_input(&c, "Value_001", i, abc[i][1], 0, 0);
-        set_input(&c, "Value_002", i, abc[i][2], 0, 0);
+        kc_set(&c, "Value", i, abc[i][0], 0, 0);
+        kc_set(&c, "Value_001", i, abc[i][1], 0, 0);
+        kc_set(&c, "Value_002", i, abc[i][2], 0, 0);
     }
-    run(&c);
+    kc_run(&c);
     for (int i = 0; i < n; i++)
-        r[i] = out_at(&c, "Value", i, 0);
+        r[i] = kc_out(&c, "Value", i, 0);
 }
 
 /* ---- safe conventions -------------------------------------------------------------- */
@@ -202,59 +121,59 @@ static void test_math_atan2_modes(void **state)
 
 /* ---- Vector Math ------------------------------------------------------------------ */
 
-static void vector_op(call *c, const char *op, sg_blender_mode mode, float ax, float ay, float az,
+static void vector_op(kernel_call *c, const char *op, sg_blender_mode mode, float ax, float ay, float az,
                       float bx, float by, float bz)
 {
-    call_init(c, "ShaderNodeVectorMath", 1);
+    kc_init(c, "ShaderNodeVectorMath", 1);
     c->blender = mode;
-    set_enum(c, "operation", op);
-    set_input(c, "Vector", 0, ax, ay, az);
-    set_input(c, "Vector_001", 0, bx, by, bz);
-    run(c);
+    kc_set_prop(c, "operation", op);
+    kc_set(c, "Vector", 0, ax, ay, az);
+    kc_set(c, "Vector_001", 0, bx, by, bz);
+    kc_run(c);
 }
 
 static void test_vector_reflect_refract_modes(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     /* A unit normal reflects the same way in both versions. */
     for (int m = 0; m < 2; m++) {
         vector_op(&c, "REFLECT", m ? SG_BLENDER_3 : SG_BLENDER_4, 1.0f, -2.0f, 3.0f, 0.0f, 0.0f, 4.0f);
-        assert_float_equal(out_at(&c, "Vector", 0, 0), 1.0f, 1e-6f);
-        assert_float_equal(out_at(&c, "Vector", 0, 1), -2.0f, 1e-6f);
-        assert_float_equal(out_at(&c, "Vector", 0, 2), -3.0f, 1e-6f);
+        assert_float_equal(kc_out(&c, "Vector", 0, 0), 1.0f, 1e-6f);
+        assert_float_equal(kc_out(&c, "Vector", 0, 1), -2.0f, 1e-6f);
+        assert_float_equal(kc_out(&c, "Vector", 0, 2), -3.0f, 1e-6f);
     }
     /* A zero normal: 4.3's safe_normalize keeps it zero (A passes through); 3.4
      * divides by |B| = 0. */
     vector_op(&c, "REFLECT", SG_BLENDER_4, 1.0f, -2.0f, 3.0f, 0.0f, 0.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Vector", 0, 1), -2.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 1), -2.0f, 0.0f);
     vector_op(&c, "REFLECT", SG_BLENDER_3, 1.0f, -2.0f, 3.0f, 0.0f, 0.0f, 0.0f);
-    assert_true(isnan(out_at(&c, "Vector", 0, 0)));
+    assert_true(isnan(kc_out(&c, "Vector", 0, 0)));
     vector_op(&c, "REFRACT", SG_BLENDER_3, 1.0f, -2.0f, 3.0f, 0.0f, 0.0f, 0.0f);
-    assert_true(isnan(out_at(&c, "Vector", 0, 0)));
+    assert_true(isnan(kc_out(&c, "Vector", 0, 0)));
 }
 
 static void test_vector_safe_conventions(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     vector_op(&c, "DIVIDE", SG_BLENDER_4, 1.0f, 2.0f, 3.0f, 0.0f, 4.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Vector", 0, 0), 0.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Vector", 0, 1), 0.5f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 0), 0.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 1), 0.5f, 0.0f);
     vector_op(&c, "NORMALIZE", SG_BLENDER_4, 0.0f, 0.0f, 0.0f, 0, 0, 0);
-    assert_float_equal(out_at(&c, "Vector", 0, 0), 0.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 0), 0.0f, 0.0f);
     vector_op(&c, "PROJECT", SG_BLENDER_4, 1.0f, 2.0f, 3.0f, 0.0f, 0.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Vector", 0, 2), 0.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 2), 0.0f, 0.0f);
     vector_op(&c, "LENGTH", SG_BLENDER_4, 3.0f, 4.0f, 12.0f, 0, 0, 0);
-    assert_float_equal(out_at(&c, "Value", 0, 0), 13.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Value", 0, 0), 13.0f, 0.0f);
     /* Total internal reflection gives the zero vector. */
-    call_init(&c, "ShaderNodeVectorMath", 1);
-    set_enum(&c, "operation", "REFRACT");
-    set_input(&c, "Vector", 0, 1.0f, 0.0f, -0.1f);
-    set_input(&c, "Vector_001", 0, 0.0f, 0.0f, 1.0f);
-    set_input(&c, "Scale", 0, 1.6f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Vector", 0, 0), 0.0f, 0.0f);
+    kc_init(&c, "ShaderNodeVectorMath", 1);
+    kc_set_prop(&c, "operation", "REFRACT");
+    kc_set(&c, "Vector", 0, 1.0f, 0.0f, -0.1f);
+    kc_set(&c, "Vector_001", 0, 0.0f, 0.0f, 1.0f);
+    kc_set(&c, "Scale", 0, 1.6f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Vector", 0, 0), 0.0f, 0.0f);
 }
 
 /* ---- Clamp and Map Range ---------------------------------------------------------- */
@@ -262,55 +181,55 @@ static void test_vector_safe_conventions(void **state)
 static void test_clamp_reversed_bounds(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c, "ShaderNodeClamp", 2);
-    set_input(&c, "Value", 0, 0.5f, 0, 0);
-    set_input(&c, "Min", 0, 2.0f, 0, 0);
-    set_input(&c, "Max", 0, -1.0f, 0, 0);
-    set_input(&c, "Value", 1, NAN, 0, 0);
-    set_input(&c, "Min", 1, 0.25f, 0, 0);
-    set_input(&c, "Max", 1, 1.0f, 0, 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Result", 0, 0), -1.0f, 0.0f); /* MINMAX: max wins */
-    assert_float_equal(out_at(&c, "Result", 1, 0), 0.25f, 0.0f); /* NaN -> lower bound */
-    set_enum(&c, "clamp_type", "RANGE");
-    run(&c);
-    assert_float_equal(out_at(&c, "Result", 0, 0), 0.5f, 0.0f); /* bounds swapped */
+    kernel_call c;
+    kc_init(&c, "ShaderNodeClamp", 2);
+    kc_set(&c, "Value", 0, 0.5f, 0, 0);
+    kc_set(&c, "Min", 0, 2.0f, 0, 0);
+    kc_set(&c, "Max", 0, -1.0f, 0, 0);
+    kc_set(&c, "Value", 1, NAN, 0, 0);
+    kc_set(&c, "Min", 1, 0.25f, 0, 0);
+    kc_set(&c, "Max", 1, 1.0f, 0, 0);
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result", 0, 0), -1.0f, 0.0f); /* MINMAX: max wins */
+    assert_float_equal(kc_out(&c, "Result", 1, 0), 0.25f, 0.0f); /* NaN -> lower bound */
+    kc_set_prop(&c, "clamp_type", "RANGE");
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result", 0, 0), 0.5f, 0.0f); /* bounds swapped */
 }
 
 static void test_map_range_empty_source(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c, "ShaderNodeMapRange", 1);
-    set_input(&c, "Value", 0, 0.7f, 0, 0);
-    set_input(&c, "From Min", 0, 0.5f, 0, 0);
-    set_input(&c, "From Max", 0, 0.5f, 0, 0);
-    set_input(&c, "To Min", 0, 2.0f, 0, 0);
-    set_input(&c, "To Max", 0, 3.0f, 0, 0);
-    set_bool(&c, "clamp", 0);
-    run(&c);
-    assert_float_equal(out_at(&c, "Result", 0, 0), 0.0f, 0.0f); /* Cycles writes 0 */
-    set_bool(&c, "clamp", 1);
-    run(&c);
-    assert_float_equal(out_at(&c, "Result", 0, 0), 2.0f, 0.0f); /* ... then clamps it */
+    kernel_call c;
+    kc_init(&c, "ShaderNodeMapRange", 1);
+    kc_set(&c, "Value", 0, 0.7f, 0, 0);
+    kc_set(&c, "From Min", 0, 0.5f, 0, 0);
+    kc_set(&c, "From Max", 0, 0.5f, 0, 0);
+    kc_set(&c, "To Min", 0, 2.0f, 0, 0);
+    kc_set(&c, "To Max", 0, 3.0f, 0, 0);
+    kc_set_prop(&c, "clamp", "false");
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result", 0, 0), 0.0f, 0.0f); /* Cycles writes 0 */
+    kc_set_prop(&c, "clamp", "true");
+    kc_run(&c);
+    assert_float_equal(kc_out(&c, "Result", 0, 0), 2.0f, 0.0f); /* ... then clamps it */
 
-    call_init(&c, "ShaderNodeMapRange", 1);
-    set_enum(&c, "data_type", "FLOAT_VECTOR");
-    set_input(&c, "Vector", 0, 0.7f, 0.7f, 0.7f);
-    set_input(&c, "From_Min_FLOAT3", 0, 0.5f, 0.5f, 0.0f);
-    set_input(&c, "From_Max_FLOAT3", 0, 0.5f, 0.5f, 1.0f);
-    set_input(&c, "To_Min_FLOAT3", 0, 2.0f, 2.0f, 2.0f);
-    set_input(&c, "To_Max_FLOAT3", 0, 3.0f, 3.0f, 3.0f);
-    run(&c);
+    kc_init(&c, "ShaderNodeMapRange", 1);
+    kc_set_prop(&c, "data_type", "FLOAT_VECTOR");
+    kc_set(&c, "Vector", 0, 0.7f, 0.7f, 0.7f);
+    kc_set(&c, "From_Min_FLOAT3", 0, 0.5f, 0.5f, 0.0f);
+    kc_set(&c, "From_Max_FLOAT3", 0, 0.5f, 0.5f, 1.0f);
+    kc_set(&c, "To_Min_FLOAT3", 0, 2.0f, 2.0f, 2.0f);
+    kc_set(&c, "To_Max_FLOAT3", 0, 3.0f, 3.0f, 3.0f);
+    kc_run(&c);
     /* Vector: safe division gives factor 0, so To Min. */
-    assert_float_equal(out_at(&c, "Vector", 0, 0), 2.0f, 0.0f);
-    assert_float_equal(out_at(&c, "Vector", 0, 2), 2.7f, 1e-6f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 0), 2.0f, 0.0f);
+    assert_float_equal(kc_out(&c, "Vector", 0, 2), 2.7f, 1e-6f);
 }
 
 /* ---- socket availability ---------------------------------------------------------- */
 
-static int available(const call *c, const char *identifier, int is_input)
+static int available(const kernel_call *c, const char *identifier, int is_input)
 {
     const sg_socket_def *defs = is_input ? c->type->inputs : c->type->outputs;
     int k = is_input ? sg_node_type_input_index(c->type, identifier)
@@ -337,8 +256,8 @@ static void test_availability(void **state)
         "SINH", "COSH", "TANH", "RADIANS", "DEGREES", NULL};
     static const char *const math_ternary[] = {"MULTIPLY_ADD", "COMPARE", "SMOOTH_MIN",
                                                "SMOOTH_MAX", "WRAP", NULL};
-    call c;
-    call_init(&c, "ShaderNodeMath", 1);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeMath", 1);
     const sg_prop_def *op = &c.type->props[sg_node_type_prop_index(c.type, "operation")];
     int n_ops = 0;
     for (int v = 0; op->values[v]; v++, n_ops++) {
@@ -354,7 +273,7 @@ static void test_availability(void **state)
     static const char *const vector_ternary[] = {"MULTIPLY_ADD", "FACEFORWARD", "WRAP", NULL};
     static const char *const vector_value[] = {"DOT_PRODUCT", "DISTANCE", "LENGTH", NULL};
     static const char *const vector_scale[] = {"SCALE", "REFRACT", NULL};
-    call_init(&c, "ShaderNodeVectorMath", 1);
+    kc_init(&c, "ShaderNodeVectorMath", 1);
     op = &c.type->props[0];
     n_ops = 0;
     for (int v = 0; op->values[v]; v++, n_ops++) {
@@ -368,14 +287,14 @@ static void test_availability(void **state)
     }
     assert_int_equal(n_ops, 27);
 
-    call_init(&c, "ShaderNodeMapRange", 1);
+    kc_init(&c, "ShaderNodeMapRange", 1);
     assert_true(available(&c, "Value", 1));
     assert_false(available(&c, "Steps", 1));
     assert_false(available(&c, "Vector", 1));
-    set_enum(&c, "interpolation_type", "STEPPED");
+    kc_set_prop(&c, "interpolation_type", "STEPPED");
     assert_true(available(&c, "Steps", 1));
     assert_false(available(&c, "Steps_FLOAT3", 1));
-    set_enum(&c, "data_type", "FLOAT_VECTOR");
+    kc_set_prop(&c, "data_type", "FLOAT_VECTOR");
     assert_true(available(&c, "Steps_FLOAT3", 1));
     assert_false(available(&c, "Steps", 1));
     assert_true(available(&c, "Vector", 0));
