@@ -14,8 +14,6 @@
 
 #include "kernel_call.h"
 
-#define MAXN 8
-
 /* ---- Color Ramp ------------------------------------------------------------------- */
 
 static sg_color_ramp two_stop_ramp(int interpolation, float second_position)
