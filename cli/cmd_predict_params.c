@@ -7,8 +7,10 @@
 #include "cli/cli.h"
 #include "pipeline/pipeline.h"
 
+#include <cblas.h> /* after our headers: its <complex.h> defines I */
+
 static const char *const help =
-    "usage: imsynth predict-params IMAGE --model MODEL_DIR [-o PARAMS.json] [options]\n"
+    "usage: imsynth predict-params IMAGE [--model MODEL_DIR] [-o PARAMS.json] [options]\n"
     "\n"
     "Describes IMAGE (PNG, JPEG, TIFF, EXR; its largest centred square resampled to the\n"
     "scene's 256 x 256, as the training renders were) with the model's descriptor and\n"
@@ -17,7 +19,7 @@ static const char *const help =
     "likeliest combination with the predicted values; Pattern Offset is the training mean.\n"
     "\n"
     "options:\n"
-    "  --model MODEL_DIR      from `imsynth fit-predictor` (required)\n"
+    "  --model MODEL_DIR      from `imsynth fit-predictor` (default: the bundled assets/model)\n"
     "  -o, --output P.json    the top hypothesis (default: stdout)\n"
     "  --top-k K              also consider the K likeliest selector combinations\n"
     "  --hypotheses H.json    write all K as {\"hypotheses\": [{\"probability\": p,\n"
@@ -78,8 +80,8 @@ int cmd_predict_params(int argc, char **argv)
             return EXIT_USAGE;
         }
     }
-    if (!image_path || !model_dir) {
-        cli_error(sub, "need IMAGE and --model MODEL_DIR (see --help)");
+    if (!image_path) {
+        cli_error(sub, "need IMAGE (see --help)");
         return EXIT_USAGE;
     }
     char err[1024];
@@ -90,6 +92,9 @@ int cmd_predict_params(int argc, char **argv)
     size_t *index = NULL;
     pipeline_descriptor *pd = NULL;
     cJSON *hyp = NULL;
+    // a threaded OpenBLAS splits the descriptor's sums differently from run to run (nn/nn.h):
+    // the same image must give the same parameters
+    openblas_set_num_threads(1);
     predictor *p = predictor_load(model_dir, err, sizeof err);
     if (!p)
         goto fail;
@@ -124,7 +129,7 @@ int cmd_predict_params(int argc, char **argv)
     if (hyp_path) {
         hyp = cJSON_CreateObject();
         cJSON_AddStringToObject(hyp, "image", image_path);
-        cJSON_AddStringToObject(hyp, "model", model_dir);
+        cJSON_AddStringToObject(hyp, "model", predictor_dir(p));
         cJSON *list = cJSON_AddArrayToObject(hyp, "hypotheses");
         for (int h = 0; h < got; h++) {
             cJSON *e = cJSON_CreateObject();

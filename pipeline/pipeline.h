@@ -313,8 +313,11 @@ int pipeline_write_loss_svg(const char *path, const double *loss, const double *
  */
 typedef struct predictor predictor;
 
+/* model_dir NULL: the bundled model, assets/model (found as pipeline_find_data finds data). */
 predictor *predictor_load(const char *model_dir, char *err, size_t errlen);
 void predictor_free(predictor *p);
+/* The directory it was loaded from (the bundled model's resolved path). */
+const char *predictor_dir(const predictor *p);
 
 int predictor_n_params(const predictor *p);
 /* Names in the super-shader's parameter order (sg_params_from_graph's). */

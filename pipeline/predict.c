@@ -423,7 +423,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     double t_describe = 0, t_candidates = 0, t_refine = 0, t_final = 0;
     int rc = -1, exists = 0;
     char tmp_dir[4096] = "", old_dir[4096] = "", path[4096], graph_buf[4096];
-    char scene_buf[2][4096], model_buf[4096];
+    char scene_buf[2][4096];
     predictor *pred = NULL;
     image raw = {0}, input = {0}, preview = {0};
     scorer sc = {.o = o};
@@ -456,14 +456,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         return -1;
 
     /* Data files. */
-    const char *model_dir = o->model_dir;
-    if (!model_dir) {
-        if (pipeline_find_data("assets/model", model_buf, sizeof model_buf, err, errlen))
-            goto done;
-        model_dir = model_buf;
-    }
-    if (!(pred = predictor_load(model_dir, err, errlen)))
+    if (!(pred = predictor_load(o->model_dir, err, errlen)))
         goto done;
+    const char *model_dir = predictor_dir(pred);
     sc.graph_path = o->graph_path;
     if (!sc.graph_path) {
         if (pipeline_find_data("assets/supershader.json", graph_buf, sizeof graph_buf, err, errlen))

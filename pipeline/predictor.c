@@ -33,6 +33,7 @@
 #include "pipeline/pipeline_internal.h"
 
 struct predictor {
+    char dir[4096];                 /* where it was loaded from (the bundled model resolved) */
     param_layout lay;
     char **names;
     datagen_descriptor kind;
@@ -330,7 +331,7 @@ done:
     return rc;
 }
 
-predictor *predictor_load(const char *dir, char *err, size_t errlen)
+predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
 {
     predictor *p = calloc(1, sizeof *p);
     char path[1100], msg[768];
@@ -339,6 +340,14 @@ predictor *predictor_load(const char *dir, char *err, size_t errlen)
         pipeline_error(err, errlen, "out of memory");
         return NULL;
     }
+    if (!model_dir) {
+        if (pipeline_find_data("assets/model", p->dir, sizeof p->dir, err, errlen))
+            goto fail;
+    } else if ((size_t)snprintf(p->dir, sizeof p->dir, "%s", model_dir) >= sizeof p->dir) {
+        pipeline_error(err, errlen, "%.200s...: path too long", model_dir);
+        goto fail;
+    }
+    const char *dir = p->dir;
     struct stat sb;
     if (stat(dir, &sb) || !S_ISDIR(sb.st_mode)) {
         pipeline_error(err, errlen, "%s: not a model directory (imsynth fit-predictor writes one)",
@@ -471,6 +480,7 @@ const char *const *predictor_param_names(const predictor *p)
     return (const char *const *)p->names;
 }
 datagen_descriptor predictor_descriptor_kind(const predictor *p) { return p->kind; }
+const char *predictor_dir(const predictor *p) { return p->dir; }
 size_t predictor_descriptor_size(const predictor *p) { return p->d; }
 const char *predictor_dataset_config(const predictor *p) { return p->dataset_config; }
 const float *predictor_mean_params(const predictor *p) { return p->mean_params; }

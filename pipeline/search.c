@@ -159,14 +159,7 @@ done:
 static int search_catalogue(const search_options *o, const image *input, hit **out, int *n_out,
                             predictor **predp, char *err, size_t errlen)
 {
-    char model_buf[4096];
-    const char *model_dir = o->model_dir;
-    if (!model_dir) {
-        if (pipeline_find_data("assets/model", model_buf, sizeof model_buf, err, errlen))
-            return -1;
-        model_dir = model_buf;
-    }
-    predictor *p = predictor_load(model_dir, err, errlen);
+    predictor *p = predictor_load(o->model_dir, err, errlen);
     if (!p)
         return -1;
     *predp = p;

@@ -156,4 +156,14 @@ assert json.load(open('$tmp/mt/model.json'))['training']['reduction'] == 'per-ta
 check "per-tap basis: each component within its own tap" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mt" -o "$tmp/pt.json"
 check "a --per-tap model predicts" 0 $?
+# without --model: the bundled model, as predict and search use it
+"$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
+check "predict-params without --model" 0 $?
+py "
+import json
+h = json.load(open('$tmp/hb.json'))
+assert h['model'].endswith('assets/model'), h['model']
+assert len(json.load(open('$tmp/pb.json'))) == 50
+"
+check "the bundled model, named in the hypotheses file" 0 $?
 finish
