@@ -129,29 +129,31 @@ else
         py "$hostile" safetensors-hlen "$tmp/hlen.safetensors" &&
         py "$hostile" npy "$tmp/claim.npy"
     check "hostile inputs made" 0 $?
-    limited() { (ulimit -v 2097152 && exec "$@"); }
-    limited "$imsynth" describe "$tmp/huge.png" -o "$tmp/h.npy" 2> "$tmp/err"
-    check "describe: a PNG claiming 100000 x 100000 pixels" 1 $?
-    expect_stderr "the image size named" "huge.png: image size 100000 x 100000"
-    limited "$imsynth" predict "$tmp/huge.png" --model "$tmp/model" -o "$tmp/h" 2> "$tmp/err"
-    check "predict: the same PNG" 1 $?
-    expect_stderr "the image size named" "huge.png: image size 100000 x 100000"
-    limited "$imsynth" render "$tmp/million.json" -o "$tmp/h.exr" 2> "$tmp/err"
-    check "render: a graph of a million nodes (124 MiB)" 1 $?
-    expect_stderr "refused by its size" "million.json: larger than the 16777216 bytes"
-    limited "$imsynth" render "$tmp/wide.json" -o "$tmp/h.exr" 2> "$tmp/err"
-    check "render: 100,000 nodes in 12 MiB" 1 $?
-    expect_stderr "refused by the node limit" "wide.json: nodes: 100002 nodes, more than the 10000"
-    limited "$imsynth" infer "$tmp/claim.safetensors" --x "$ref/x.npy" -o "$tmp/h.npy" 2> "$tmp/err"
-    check "infer: a safetensors tensor claiming 10^12 bytes" 1 $?
-    expect_stderr "the tensor named" "claim.safetensors: tensor \"w\": shape is larger than the file"
-    limited "$imsynth" infer "$tmp/hlen.safetensors" --x "$ref/x.npy" -o "$tmp/h.npy" 2> "$tmp/err"
-    check "infer: a safetensors header length of 10^12 bytes" 1 $?
-    expect_stderr "the header length named" "hlen.safetensors: header length 1000000000000 runs past"
-    limited "$imsynth" train --x "$tmp/claim.npy" --y "$ref/y.npy" --arch "mlp:16-8-13" \
-        -o "$tmp/h.safetensors" 2> "$tmp/err"
-    check "train: an .npy claiming 100000 x 100000 floats" 1 $?
-    expect_stderr "the claim named" "claim.npy: data is 64 bytes, header (shape 100000 x 100000, '<f4') says 40000000000"
+    # refused WHAT STDERR_FRAGMENT CMD...: under the limit, CMD exits 1 and says FRAGMENT
+    refused() {
+        what=$1 fragment=$2
+        shift 2
+        (ulimit -v 2097152 && exec "$@") 2> "$tmp/err"
+        check "$what" 1 $?
+        expect_stderr "names the file and the claim" "$fragment"
+    }
+    refused "describe: a PNG claiming 100000 x 100000 pixels" "huge.png: image size 100000 x 100000" \
+        "$imsynth" describe "$tmp/huge.png" -o "$tmp/h.npy"
+    refused "predict: the same PNG" "huge.png: image size 100000 x 100000" \
+        "$imsynth" predict "$tmp/huge.png" --model "$tmp/model" -o "$tmp/h"
+    refused "render: a graph of a million nodes (124 MiB)" "million.json: larger than the 16777216 bytes" \
+        "$imsynth" render "$tmp/million.json" -o "$tmp/h.exr"
+    refused "render: 100,000 nodes in 12 MiB" "wide.json: nodes: 100002 nodes, more than the 10000" \
+        "$imsynth" render "$tmp/wide.json" -o "$tmp/h.exr"
+    refused "infer: a safetensors tensor claiming 10^12 bytes" \
+        "claim.safetensors: tensor \"w\": shape is larger than the file" \
+        "$imsynth" infer "$tmp/claim.safetensors" --x "$ref/x.npy" -o "$tmp/h.npy"
+    refused "infer: a safetensors header length of 10^12 bytes" \
+        "hlen.safetensors: header length 1000000000000 runs past" \
+        "$imsynth" infer "$tmp/hlen.safetensors" --x "$ref/x.npy" -o "$tmp/h.npy"
+    refused "train: an .npy claiming 100000 x 100000 floats" \
+        "claim.npy: data is 64 bytes, header (shape 100000 x 100000, '<f4') says 40000000000" \
+        "$imsynth" train --x "$tmp/claim.npy" --y "$ref/y.npy" --arch "mlp:16-8-13" -o "$tmp/h.safetensors"
     for f in h.npy h h.exr h.safetensors; do
         [ ! -e "$tmp/$f" ] || { echo "FAIL: $f written"; failures=$((failures + 1)); }
     done
