@@ -281,34 +281,17 @@ static void test_cli_matches_torch(void **state)
                                   "--gamma 0.5");
 }
 
-static void test_adamw_mlp3(void **state)
-{
-    (void)state;
-    run_case("adamw_mlp3");
-}
-static void test_adamw_mixed_heads(void **state)
-{
-    (void)state;
-    run_case("adamw_mixed");
-}
-static void test_sgd_clip_step(void **state)
-{
-    (void)state;
-    run_case("sgd_clip_step");
-}
-static void test_adam_residual_cosine(void **state)
-{
-    (void)state;
-    run_case("adam_res_cosine");
-}
+/* One reference case per test; the case's name is its initial state. */
+static void test_reference_case(void **state) { run_case(*state); }
+#define REFERENCE_CASE(name) {name, test_reference_case, NULL, NULL, (void *)name}
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_adamw_mlp3),
-        cmocka_unit_test(test_adamw_mixed_heads),
-        cmocka_unit_test(test_sgd_clip_step),
-        cmocka_unit_test(test_adam_residual_cosine),
+        REFERENCE_CASE("adamw_mlp3"),
+        REFERENCE_CASE("adamw_mixed"),
+        REFERENCE_CASE("sgd_clip_step"),
+        REFERENCE_CASE("adam_res_cosine"),
         cmocka_unit_test(test_cli_matches_torch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
