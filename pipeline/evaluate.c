@@ -1492,16 +1492,6 @@ static int write_report(const report_ctx *c, char *err, size_t errlen)
     return rc;
 }
 
-static void remove_report_dir(const char *dir)
-{
-    char path[1400];
-    for (size_t i = 0; i < sizeof report_files / sizeof *report_files; i++) {
-        snprintf(path, sizeof path, "%s/%s", dir, report_files[i]);
-        unlink(path);
-    }
-    rmdir(dir);
-}
-
 /* ---------------------------------------------------------------- inputs ----------- */
 
 static int check_image(const char *path, const image *img, const shared *sh, char *err,
@@ -1849,6 +1839,8 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
                        workers[0].desc_size[sh.train]);
         goto done;
     }
+    pipeline_remove_flat_dir(tmp_dir); /* a killed run's, if its PID has come round again */
+    pipeline_remove_stale_temps(out_dir);
     if (mkdir(tmp_dir, 0777) != 0) {
         pipeline_error(err, errlen, "%s: cannot create: %s", tmp_dir, strerror(errno));
         goto done;
@@ -2026,7 +2018,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     rc = 0;
 done:
     if (made_tmp)
-        remove_report_dir(tmp_dir);
+        pipeline_remove_flat_dir(tmp_dir);
     for (int i = 0; batch && i < bsize; i++) {
         input_clear(&batch[i]);
         result_clear(&res[i]);

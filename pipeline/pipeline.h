@@ -277,6 +277,15 @@ int pipeline_write_json_atomic(const char *path, const struct cJSON *j, char *er
  * back as the same float (sg_params_to_json's); an empty object when out of memory. */
 struct cJSON *pipeline_params_json(const char *const *names, const float *values, int n);
 
+/* Output directories written whole (predict's OUTDIR, evaluate's report): the files go to
+ * OUT.tmp.PID, renamed to OUT when complete. A run killed before the rename leaves its
+ * OUT.tmp.PID behind; the next run for the same OUT removes those whose process is gone
+ * (pipeline_remove_stale_temps), as SQLite rolls back a hot journal. The directories hold
+ * files only: pipeline_remove_flat_dir unlinks the entries and removes the directory (a
+ * subdirectory, which no writer makes, keeps it). */
+void pipeline_remove_flat_dir(const char *dir);
+void pipeline_remove_stale_temps(const char *out_dir);
+
 /* A user's image for predict and search (PNG, JPEG, TIFF, EXR through image_read), refused
  * when smaller than 32 x 32 or when any value is NaN or infinite, with a message naming the
  * file. out is allocated. Returns 0 or -1. */

@@ -289,22 +289,6 @@ static int write_compare(const char *path, const image *input, const image *prev
     return rc ? pipeline_error(err, errlen, "%s", msg) : 0;
 }
 
-static void remove_tree(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (d) {
-        struct dirent *e;
-        char p[4096];
-        while ((e = readdir(d)))
-            if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
-                snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
-                unlink(p);
-            }
-        closedir(d);
-    }
-    rmdir(dir);
-}
-
 /* May OUTDIR be replaced? Yes when missing, empty, or an earlier predict's output. */
 static int check_out_dir(const char *dir, int *exists, char *err, size_t errlen)
 {
@@ -634,7 +618,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         tmp_dir[0] = 0;
         goto done;
     }
-    remove_tree(tmp_dir);
+    pipeline_remove_flat_dir(tmp_dir); /* a killed run's, if its PID has come round again */
+    pipeline_remove_stale_temps(o->out_dir);
     if (mkdir(tmp_dir, 0777) != 0) {
         pipeline_error(err, errlen, "%s: %s", tmp_dir, strerror(errno));
         tmp_dir[0] = 0;
@@ -763,7 +748,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* Into place: an earlier output moves aside first, and goes once the new one is in. */
     if (exists) {
         snprintf(old_dir, sizeof old_dir, "%s.old.%ld", o->out_dir, (long)getpid());
-        remove_tree(old_dir);
+        pipeline_remove_flat_dir(old_dir);
         if (rename(o->out_dir, old_dir) != 0) {
             pipeline_error(err, errlen, "%s: cannot move aside: %s", o->out_dir, strerror(errno));
             old_dir[0] = 0;
@@ -778,11 +763,11 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     }
     tmp_dir[0] = 0;
     if (old_dir[0])
-        remove_tree(old_dir);
+        pipeline_remove_flat_dir(old_dir);
     rc = 0;
 done:
     if (tmp_dir[0])
-        remove_tree(tmp_dir);
+        pipeline_remove_flat_dir(tmp_dir);
     cJSON_Delete(report);
     sg_graph_free(sub);
     refine_result_free(&rr);

@@ -1,11 +1,14 @@
 /* Small helpers shared inside pipeline/. */
+#include <dirent.h>
 #include <errno.h>
+#include <signal.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 
@@ -213,4 +216,55 @@ int pipeline_read_user_image(const char *path, image *out, char *err, size_t err
         return 0;
     image_free(out);
     return -1;
+}
+
+void pipeline_remove_flat_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d) {
+        struct dirent *e;
+        char p[4096];
+        while ((e = readdir(d)))
+            if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
+                (size_t)snprintf(p, sizeof p, "%s/%s", dir, e->d_name) < sizeof p)
+                unlink(p);
+        closedir(d);
+    }
+    rmdir(dir);
+}
+
+void pipeline_remove_stale_temps(const char *out_dir)
+{
+    char parent[4096], prefix[1024];
+    const char *slash = strrchr(out_dir, '/');
+    const char *base = slash ? slash + 1 : out_dir;
+    if (slash)
+        snprintf(parent, sizeof parent, "%.*s", (int)(slash - out_dir), out_dir);
+    else
+        snprintf(parent, sizeof parent, ".");
+    if (!*parent)
+        snprintf(parent, sizeof parent, "/");
+    if (!*base || (size_t)snprintf(prefix, sizeof prefix, "%s.tmp.", base) >= sizeof prefix)
+        return;
+    DIR *d = opendir(parent);
+    if (!d)
+        return;
+    size_t plen = strlen(prefix);
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strncmp(e->d_name, prefix, plen))
+            continue;
+        const char *digits = e->d_name + plen;
+        char *end;
+        long pid = strtol(digits, &end, 10);
+        // only OUT.tmp.<pid> of a process that no longer exists (kill(pid, 0) says ESRCH;
+        // EPERM means it runs under another user: keep it)
+        if (!*digits || *end || pid <= 0 || pid == (long)getpid() ||
+            kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue;
+        char path[4096];
+        if ((size_t)snprintf(path, sizeof path, "%s/%s", parent, e->d_name) < sizeof path)
+            pipeline_remove_flat_dir(path);
+    }
+    closedir(d);
 }

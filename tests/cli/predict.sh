@@ -60,9 +60,17 @@ assert min(losses)[0] == chosen[r["light"]]["loss"] == r["refinement"]["start_lo
 PY
 check "auto: both scenes scored, the least loss wins" 0 $?
 
-# a rerun into an earlier output replaces it; a folder of other files is refused and kept
+# a rerun into an earlier output replaces it; a folder of other files is refused and kept.
+# The rerun also removes what a killed run left (OUT.tmp.PID of a process that is gone),
+# and keeps a live run's
+dead=999999; while kill -0 $dead 2> /dev/null; do dead=$((dead + 1)); done
+mkdir "$tmp/out1.tmp.$dead" "$tmp/out1.tmp.$$"
+touch "$tmp/out1.tmp.$dead/preview.png" "$tmp/out1.tmp.$$/preview.png"
 "$imsynth" predict "$input" -o "$tmp/out1" $fast --refine 1
 check "rerun into an earlier output" 0 $?
+[ ! -e "$tmp/out1.tmp.$dead" ] && [ -e "$tmp/out1.tmp.$$/preview.png" ]
+check "a killed run's temporary folder removed, a live one's kept" 0 $?
+rm -r "$tmp/out1.tmp.$$"
 py -c "import json,sys; r=json.load(open(sys.argv[1])); assert r['refinement']['evaluations'] == 1" \
     "$tmp/out1/report.json"
 check "the earlier output was replaced" 0 $?
