@@ -40,6 +40,9 @@ static const char *const help =
     "                          each a PCA of that tap's values alone (default: one PCA of\n"
     "                          all of them, which spends most components on the big deep\n"
     "                          taps)\n"
+    "  --feature-mask M.npy    fit the PCA on the features M keeps (1 x features, 0/1:\n"
+    "                          `imsynth forest importance --top-k K -o M.npy` of a forest\n"
+    "                          fitted on the training rows only)\n"
     "  --hidden W1-W2-...      hidden layer widths (default 1024-1024)\n"
     "  --epochs E              default 60\n"
     "  --batch B               default 128\n"
@@ -135,6 +138,8 @@ int cmd_fit_predictor(int argc, char **argv)
             o.val_dataset_path = v;
         else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             o.out_dir = v;
+        else if (!strcmp(a, "--feature-mask"))
+            o.feature_mask_path = v;
         else if (!strcmp(a, "--hidden"))
             o.hidden = v;
         else if (!strcmp(a, "--val-fraction"))
@@ -170,6 +175,10 @@ int cmd_fit_predictor(int argc, char **argv)
     }
     if (!o.dataset_path || !o.out_dir) {
         cli_error(sub, "need --dataset DS.sqlite and -o MODEL_DIR (see --help)");
+        return EXIT_USAGE;
+    }
+    if (o.per_tap && o.feature_mask_path) {
+        cli_error(sub, "--per-tap and --feature-mask are two reductions: choose one");
         return EXIT_USAGE;
     }
     progress_state ps = {.quiet = quiet};

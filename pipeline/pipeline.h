@@ -377,6 +377,8 @@ typedef struct predictor_fit_options {
     int components;               /* PCA components (the network's inputs) */
     int per_tap;                  /* split the components among the descriptor's taps, a
                                    * PCA of each tap's values alone (predictor_fit.c) */
+    const char *feature_mask_path; /* NULL, or a 1 x d 0/1 .npy: the PCA sees only its
+                                    * features (a forest's: `forest importance`) */
     int half;                     /* store the PCA basis and the catalogue's reduced
                                    * descriptors as float16 (the basis rounded before it is
                                    * used, so training and prediction see the same values):

@@ -191,13 +191,44 @@ done:
 }
 
 /*
- * Per-tap PCA. The descriptor concatenates the Grams of a few taps of very different
- * sizes (MobileNetV2's: conv1's 528 values, the colours, beside block_6_expand's 18,528),
- * and one PCA of all the standardised values spends its components where most values are,
- * on the deep taps. Here each tap gets an equal share of the k components (the first
- * k % taps get one more), fitted on its own columns. The result is the same k x d basis a
- * global PCA gives, zero outside each component's tap, so the model's format and the
- * prediction path do not change. X (n x d) is standardised, so each block is centred.
+ * Reductions other than one PCA of every value. Each fits PCAs on subsets of the columns
+ * and scatters them into the same k x d basis a global PCA gives, zero outside each
+ * component's columns, so the model's format and the prediction path do not change. X
+ * (n x d) is standardised, so every subset is centred.
+ */
+
+/* kt components of X's columns cols[0..w) (ascending) into rows comp[0..kt) of a k x d
+ * basis (zero elsewhere) and var[0..kt). */
+static int pca_fit_columns(const float *X, size_t n, size_t d, const uint32_t *cols, size_t w,
+                           int kt, uint64_t seed, int threads, float *comp, float *var,
+                           char *msg, size_t len)
+{
+    if ((size_t)kt > w || (size_t)kt >= n)
+        return pipeline_error(msg, len, "%d components from %zu values and %zu rows: at most "
+                                        "min(rows - 1, values)",
+                              kt, w, n);
+    float *block = malloc(n * w * sizeof *block), *bc = malloc((size_t)kt * w * sizeof *bc);
+    int rc = !block || !bc ? pipeline_error(msg, len, "out of memory for %zu x %zu values", n, w)
+                           : 0;
+    for (size_t i = 0; !rc && i < n; i++)
+        for (size_t j = 0; j < w; j++)
+            block[i * w + j] = X[i * d + cols[j]];
+    if (!rc)
+        rc = nn_pca_fit(block, (int)n, (int)w, kt, 2, seed, threads, bc, var, msg, len);
+    for (int c = 0; !rc && c < kt; c++)
+        for (size_t j = 0; j < w; j++)
+            comp[(size_t)c * d + cols[j]] = bc[(size_t)c * w + j];
+    free(block);
+    free(bc);
+    return rc;
+}
+
+/*
+ * Per tap. The descriptor concatenates the Grams of a few taps of very different sizes
+ * (MobileNetV2's: conv1's 528 values, the colours, beside block_6_expand's 18,528), and one
+ * PCA of all the standardised values spends its components where most values are, on the
+ * deep taps. Here each tap gets an equal share of the k components (the first k % taps get
+ * one more), fitted on its own columns. (Measured: EVALUATION.md, "the reduction".)
  */
 static int pca_fit_per_tap(const float *X, size_t n, size_t d, const char *config, int k,
                            uint64_t seed, int threads, float *comp, float *var, char *msg,
@@ -225,31 +256,81 @@ static int pca_fit_per_tap(const float *X, size_t n, size_t d, const char *confi
                               d, off[taps]);
     if (k < taps)
         return pipeline_error(msg, len, "per-tap reduction: %d components for %d taps", k, taps);
+    uint32_t *cols = malloc(d * sizeof *cols);
+    if (!cols)
+        return pipeline_error(msg, len, "out of memory");
     memset(comp, 0, (size_t)k * d * sizeof *comp);
     int first = 0, rc = 0;
     for (int t = 0; t < taps && !rc; t++) {
         size_t w = off[t + 1] - off[t];
         int kt = k / taps + (t < k % taps);
-        if ((size_t)kt > w || (size_t)kt >= n) {
-            rc = pipeline_error(msg, len, "per-tap reduction: %d components from tap %d's %zu "
-                                          "values and %zu rows",
-                                kt, t, w, n);
-            break;
-        }
-        float *block = malloc(n * w * sizeof *block), *bc = malloc((size_t)kt * w * sizeof *bc);
-        if (!block || !bc)
-            rc = pipeline_error(msg, len, "out of memory for tap %d", t);
-        for (size_t i = 0; !rc && i < n; i++)
-            memcpy(block + i * w, X + i * d + off[t], w * sizeof *block);
-        if (!rc)
-            rc = nn_pca_fit(block, (int)n, (int)w, kt, 2, seed + (uint64_t)t, threads, bc,
-                            var + first, msg, len);
-        for (int c = 0; !rc && c < kt; c++)
-            memcpy(comp + (size_t)(first + c) * d + off[t], bc + (size_t)c * w, w * sizeof *bc);
-        free(block);
-        free(bc);
+        for (size_t j = 0; j < w; j++)
+            cols[j] = (uint32_t)(off[t] + j);
+        char why[512];
+        if (pca_fit_columns(X, n, d, cols, w, kt, seed + (uint64_t)t, threads,
+                            comp + (size_t)first * d, var + first, why, sizeof why))
+            rc = pipeline_error(msg, len, "per-tap reduction, tap %d: %s", t, why);
         first += kt;
     }
+    free(cols);
+    return rc;
+}
+
+/*
+ * Feature mask. A 1 x d 0/1 mask (`imsynth forest importance --top-k K -o MASK.npy`: the
+ * features a random forest found most useful for the parameters, as the thesis reduced its
+ * inputs) keeps its columns; the PCA is fitted on those alone. The forest must have been
+ * fitted on training rows only, or the mask has seen the validation set.
+ */
+/* MASK.npy: d values, each 0 or 1, at least k ones. *sha gets the file's SHA-256 (the run's
+ * settings name it, so that a resumed run uses the same mask). */
+static int read_feature_mask(const char *path, size_t d, int k, float **mask, char sha[65],
+                             char *err, size_t errlen)
+{
+    size_t len, r, c;
+    char msg[768];
+    char *bytes = pipeline_read_file(path, &len, err, errlen);
+    if (!bytes)
+        return -1;
+    pipeline_sha256_hex(bytes, len, sha);
+    free(bytes);
+    if (nn_npy_read_f32(path, mask, &r, &c, msg, sizeof msg))
+        return pipeline_error(err, errlen, "--feature-mask: %s", msg);
+    size_t ones = 0;
+    int rc = 0;
+    if (r * c != d)
+        rc = pipeline_error(err, errlen, "%s: %zu values, the descriptors have %zu", path, r * c,
+                            d);
+    for (size_t j = 0; !rc && j < d; j++) {
+        if ((*mask)[j] != 0.0f && (*mask)[j] != 1.0f)
+            rc = pipeline_error(err, errlen, "%s: value %zu is %g, not 0 or 1", path, j,
+                                (double)(*mask)[j]);
+        ones += (*mask)[j] == 1.0f;
+    }
+    if (!rc && ones < (size_t)k)
+        rc = pipeline_error(err, errlen, "%s: keeps %zu features, fewer than the %d components",
+                            path, ones, k);
+    if (rc) {
+        free(*mask);
+        *mask = NULL;
+    }
+    return rc;
+}
+
+static int pca_fit_masked(const float *X, size_t n, size_t d, const float *mask, int k,
+                          uint64_t seed, int threads, float *comp, float *var, char *msg,
+                          size_t len)
+{
+    uint32_t *cols = malloc(d * sizeof *cols);
+    if (!cols)
+        return pipeline_error(msg, len, "out of memory");
+    size_t w = 0;
+    for (size_t j = 0; j < d; j++)
+        if (mask[j] != 0.0f)
+            cols[w++] = (uint32_t)j;
+    memset(comp, 0, (size_t)k * d * sizeof *comp);
+    int rc = pca_fit_columns(X, n, d, cols, w, k, seed, threads, comp, var, msg, len);
+    free(cols);
     return rc;
 }
 
@@ -435,7 +516,8 @@ static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val
 
 /* The settings that define a run (a resumed run must have the same). */
 static char *run_settings_json(const predictor_fit_options *o, const char *arch,
-                               const char *train_config, size_t n_train, size_t n_val)
+                               const char *train_config, size_t n_train, size_t n_val,
+                               const char *mask_sha)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "dataset", o->dataset_path);
@@ -447,6 +529,11 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     cJSON_AddNumberToObject(j, "components", o->components);
     if (o->per_tap)
         cJSON_AddStringToObject(j, "reduction", "per-tap");
+    if (*mask_sha) {
+        cJSON_AddStringToObject(j, "reduction", "feature mask");
+        cJSON_AddStringToObject(j, "feature_mask", o->feature_mask_path);
+        cJSON_AddStringToObject(j, "feature_mask_sha256", mask_sha);
+    }
     if (o->half)
         cJSON_AddBoolToObject(j, "half", 1);
     if (o->catalogue)
@@ -582,10 +669,14 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON_AddStringToObject(tr, "signed_log", "t = sign(x) log1p(|x| / s), s = mean |x|");
     cJSON_AddStringToObject(tr, "standardise", "(t - mean) / std over the training rows");
     cJSON_AddNumberToObject(tr, "components", o->components);
-    cJSON_AddStringToObject(tr, "pca", o->per_tap ? "per tap: each tap's share of the "
-                                                    "components from its own values; randomized "
-                                                    "SVD, 2 power iterations, whitened"
-                                                  : "randomized SVD, 2 power iterations, whitened");
+    cJSON_AddStringToObject(tr, "pca",
+                            o->feature_mask_path
+                                ? "of the feature mask's values only; randomized SVD, 2 power "
+                                  "iterations, whitened"
+                            : o->per_tap ? "per tap: each tap's share of the components from its "
+                                           "own values; randomized SVD, 2 power iterations, "
+                                           "whitened"
+                                         : "randomized SVD, 2 power iterations, whitened");
     cJSON *net = cJSON_AddObjectToObject(j, "network");
     cJSON_AddStringToObject(net, "arch", arch);
     cJSON_AddStringToObject(net, "heads", heads);
@@ -627,6 +718,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     size_t d = 0;
     float *scale = NULL, *mean = NULL, *std = NULL, *comp = NULL, *var = NULL, *mean_p = NULL;
     float *best_w = NULL, *bx = NULL, *by = NULL, *bm = NULL, *mean_y = NULL;
+    float *feature_mask = NULL;
+    char mask_sha[65] = "";
     size_t *order = NULL;
     nn_mlp net = {0};
     nn_optimizer opt = {0};
@@ -673,6 +766,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
                        o->components, train.n, d);
         goto done;
     }
+    if (o->feature_mask_path &&
+        read_feature_mask(o->feature_mask_path, d, o->components, &feature_mask, mask_sha, err,
+                          errlen))
+        goto done;
     if (predictor_layout_make(&L, (const char *const *)names, np, err, errlen))
         goto done;
     int outputs = predictor_layout_outputs(&L), yc = L.n_values + L.n_selectors, k = o->components;
@@ -683,7 +780,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         pipeline_error(err, errlen, "hidden layers \"%s\": %s", o->hidden, msg);
         goto done;
     }
-    settings = run_settings_json(o, arch, config, train.n, val.n);
+    settings = run_settings_json(o, arch, config, train.n, val.n, mask_sha);
 
     // 2. the run's directory: resume it when it is this run's
     st.train_loss = calloc((size_t)o->epochs, sizeof(double));
@@ -756,10 +853,12 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
             pipeline_error(err, errlen, "out of memory");
             goto done;
         }
-        if (o->per_tap ? pca_fit_per_tap(train.X, train.n, d, config, k, o->seed, o->threads,
-                                         comp, var, msg, sizeof msg)
-                       : nn_pca_fit(train.X, (int)train.n, (int)d, k, 2, o->seed, o->threads,
-                                    comp, var, msg, sizeof msg)) {
+        if (feature_mask ? pca_fit_masked(train.X, train.n, d, feature_mask, k, o->seed,
+                                          o->threads, comp, var, msg, sizeof msg)
+            : o->per_tap ? pca_fit_per_tap(train.X, train.n, d, config, k, o->seed, o->threads,
+                                           comp, var, msg, sizeof msg)
+                         : nn_pca_fit(train.X, (int)train.n, (int)d, k, 2, o->seed, o->threads,
+                                      comp, var, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", msg);
             goto done;
         }
@@ -996,6 +1095,7 @@ done:
     free(comp);
     free(var);
     free(mean_p);
+    free(feature_mask);
     free(best_w);
     free(bx);
     free(by);

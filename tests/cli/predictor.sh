@@ -156,6 +156,52 @@ assert json.load(open('$tmp/mt/model.json'))['training']['reduction'] == 'per-ta
 check "per-tap basis: each component within its own tap" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mt" -o "$tmp/pt.json"
 check "a --per-tap model predicts" 0 $?
+# --feature-mask: the PCA sees only the features a forest kept (forest importance's mask)
+"$imsynth" forest fit --dataset "$tmp/ds.sqlite" --trees 4 --quiet -o "$tmp/f.bin" &&
+    "$imsynth" forest importance "$tmp/f.bin" --top-k 64 -o "$tmp/fmask.npy"
+check "a forest's mask of 64 features" 0 $?
+"$imsynth" fit-predictor $fit --epochs 2 --feature-mask "$tmp/fmask.npy" -o "$tmp/mf"
+check "fit --feature-mask" 0 $?
+py "
+import json, struct
+def npy(p):
+    b = open(p, 'rb').read(); n = struct.unpack('<H', b[8:10])[0]
+    return struct.unpack('<%df' % ((len(b) - 10 - n) // 4), b[10 + n:])
+m = npy('$tmp/fmask.npy'); keep = [j for j, v in enumerate(m) if v == 1]
+assert len(m) == 38808 and len(keep) == 64, (len(m), len(keep))
+b = open('$tmp/mf/transform.safetensors', 'rb').read(); n = struct.unpack('<Q', b[:8])[0]
+t = json.loads(b[8:8 + n])['pca.components']; lo, hi = t['data_offsets']
+c = struct.unpack('<%df' % (8 * 38808), b[8 + n + lo:8 + n + hi]); ks = set(keep)
+for k in range(8):
+    row = c[k * 38808:(k + 1) * 38808]
+    assert any(row[j] for j in keep) and not any(v for j, v in enumerate(row) if j not in ks), k
+tr = json.load(open('$tmp/mf/model.json'))['training']
+assert tr['reduction'] == 'feature mask' and len(tr['feature_mask_sha256']) == 64, tr
+"
+check "masked basis: each component within the mask's features" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/mf" -o "$tmp/pf.json"
+check "a --feature-mask model predicts" 0 $?
+py "
+import struct
+def npy(p, shape, vals):
+    h = \"{'descr': '<f4', 'fortran_order': False, 'shape': %s, }\" % (shape,)
+    h += ' ' * (63 - len(h)) + '\\n'
+    open(p, 'wb').write(b'\\x93NUMPY\\x01\\x00' + struct.pack('<H', len(h)) + h.encode() + struct.pack('<%df' % len(vals), *vals))
+npy('$tmp/short.npy', '(1, 100)', [1.0] * 100)
+npy('$tmp/two.npy', '(1, 38808)', [2.0] + [1.0] * 38807)
+npy('$tmp/few.npy', '(1, 38808)', [1.0] * 3 + [0.0] * 38805)
+"
+check "bad masks made" 0 $?
+for bad in "short.npy:100 values, the descriptors have 38808" "two.npy:value 0 is 2, not 0 or 1" \
+    "few.npy:keeps 3 features, fewer than the 8 components"; do
+    f=${bad%%:*}
+    "$imsynth" fit-predictor $fit --epochs 1 --feature-mask "$tmp/$f" -o "$tmp/mb" 2> "$tmp/err"
+    check "--feature-mask $f refused" 1 $?
+    expect_stderr "names the file and why" "$f: ${bad#*:}"
+    [ ! -e "$tmp/mb" ] || { echo "FAIL: mb written"; failures=$((failures + 1)); }
+done
+"$imsynth" fit-predictor $fit --per-tap --feature-mask "$tmp/fmask.npy" -o "$tmp/mb" 2> "$tmp/err"
+check "--per-tap with --feature-mask is a usage error" 2 $?
 # without --model: the bundled model, as predict and search use it
 "$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
 check "predict-params without --model" 0 $?
