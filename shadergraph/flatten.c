@@ -270,6 +270,8 @@ static source resolve_out_step(sg_flat *f, context *c, int node, int socket)
                 return none;
         }
         context *ch = c->child[node];
+        /* The first Group Output node is the active one (Blender marks one active; our
+         * format keeps one). Without one, the output is the interface default. */
         for (int i = 0; i < ch->tree->n_nodes; i++)
             if (ch->tree->nodes[i].type->role == SG_ROLE_GROUP_OUTPUT) {
                 source s = resolve_in(f, ch, i, socket);
