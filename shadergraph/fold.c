@@ -63,6 +63,20 @@ static int replace_output_by_constant(sg_flat *f, int node, int socket, sg_socke
     return replaced;
 }
 
+/* Every input constant: no implicit input, and no link into the node (one scan of the
+ * links rather than one per input). */
+static bool all_inputs_constant(const sg_flat *f, int node)
+{
+    const sg_node *n = &f->t.nodes[node];
+    for (int k = 0; k < n->n_in; k++)
+        if (n->in[k].implicit != SG_IMPLICIT_NONE)
+            return false;
+    for (int l = 0; l < f->t.n_links; l++)
+        if (f->t.links[l].to_node == node)
+            return false;
+    return true;
+}
+
 static bool has_output_consumers(const sg_flat *f, int node, int socket)
 {
     for (int l = 0; l < f->t.n_links; l++)
@@ -207,13 +221,8 @@ static bool fold_node(sg_flat *f, int node, sg_blender_mode mode)
     const sg_node_type *t = n->type;
     if (!t->kernel || (t->flags & (SG_NODE_READS_GEOMETRY | SG_NODE_SINK)))
         return false;
-    if (t->flags & SG_NODE_FOLD_CONSTANT) {
-        bool all = true;
-        for (int k = 0; k < n->n_in && all; k++)
-            all = is_const_input(f, node, k);
-        if (all)
-            return fold_all_constant(&x);
-    }
+    if ((t->flags & SG_NODE_FOLD_CONSTANT) && all_inputs_constant(f, node))
+        return fold_all_constant(&x);
     return t->fold && t->fold(&x);
 }
 
