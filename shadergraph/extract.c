@@ -65,7 +65,7 @@ static bool remove_dead(sg_flat *f)
 }
 
 /* Two live nodes compute the same thing: same type, properties, ramp, and for each
- * input the same link source or the same constant. `src` holds, per node, the
+ * input the same link source or the same constant. `first_in` holds, per node, the
  * first input's slot in `link_of` (the link into each input, or -1). */
 static bool same_node(const sg_flat *f, const int *first_in, const int *link_of, int a, int b)
 {
