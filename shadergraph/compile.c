@@ -1,20 +1,23 @@
 /*
- * Compiling a graph into a flat program.
+ * Compiling a flat graph into a program.
  *
- * Compilation resolves each requested socket backwards, on demand: an output socket
- * becomes the register of the instruction that computes its node (emitted after the
- * instructions of its inputs, so the list is in dependency order), an unlinked input
- * becomes a constant or an implicit geometry register. Groups are inlined on the way:
- * a group node's output resolves into the group's tree, a Group Input node's output
- * back into the group node's inputs in the parent. Reroutes resolve to what feeds them.
- * Nodes that no requested socket reaches are never visited, so they cost nothing.
+ * sg_compile first flattens and folds the graph (extract.c: groups inlined, reroutes and
+ * Value/RGB nodes gone, Cycles' constant folding applied), then compiles that one tree:
+ * so every node seen here is a typed node with a kernel or a sink, and there are no
+ * groups (compile_flat asserts it). Compilation resolves each requested socket
+ * backwards, on demand: an output socket becomes the register of the instruction that
+ * computes its node (emitted after the instructions of its inputs, so the list is in
+ * dependency order), an unlinked input becomes a constant or an implicit geometry
+ * register. Nodes that no requested socket reaches are never visited, so they cost
+ * nothing.
  *
- * Bump needs its Height at the shading point and one pixel over in x and in y, as
- * Cycles does. Each tree instance therefore exists in three "variants" (geometry
- * offset 0, +dx, +dy). A node resolved in an offset variant whose inputs do not
- * depend on the offset is shared with variant 0, so only the part of the Height
+ * Bump (SG_NODE_HEIGHT_OFFSETS) needs its Height at the shading point and one pixel
+ * over in x and in y, as Cycles does. The tree therefore exists in three "variants"
+ * (geometry offset 0, +dx, +dy). A node resolved in an offset variant whose inputs do
+ * not depend on the offset is shared with variant 0, so only the part of the Height
  * subgraph that reads geometry is duplicated.
  */
+#include <assert.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,22 +32,17 @@ typedef struct source {
     int reg;        /* !is_const */
 } source;
 
-/* One inlined copy of a tree in one variant. The base (variant 0) instance owns the
- * child table; variant instances are reached through base->variants. */
+/* The tree in one variant. Variant instances are reached through base->variants. */
 typedef struct instance {
     const sg_tree *tree;
     int variant;
     struct instance *base;
     struct instance *variants[3];
-    struct instance *parent; /* base instance of the parent tree; NULL for main */
-    int parent_node;         /* the group node in the parent */
-    int *memo;               /* per node: instruction index + 1, 0 = not yet emitted */
-    int *busy;               /* per node: being resolved (guards against cycles) */
-    struct instance **child; /* per node (base only): base instance of the group */
+    int *memo; /* per node: instruction index + 1, 0 = not yet emitted */
+    int *busy; /* per node: being resolved (guards against cycles) */
 } instance;
 
 typedef struct compiler {
-    const sg_graph *g;
     sg_program *p;
     sg_error *err;
     instance **all;
@@ -67,8 +65,7 @@ static int fail(compiler *c, const char *fmt, const char *a, const char *b)
     return -1;
 }
 
-static instance *new_instance(compiler *c, const sg_tree *t, int variant, instance *base,
-                              instance *parent, int parent_node)
+static instance *new_instance(compiler *c, const sg_tree *t, int variant, instance *base)
 {
     if (c->n_all == c->cap_all) {
         int cap = c->cap_all ? 2 * c->cap_all : 16;
@@ -84,16 +81,11 @@ static instance *new_instance(compiler *c, const sg_tree *t, int variant, instan
     in->tree = t;
     in->variant = variant;
     in->base = base ? base : in;
-    in->parent = parent;
-    in->parent_node = parent_node;
     in->memo = calloc((size_t)t->n_nodes + 1, sizeof *in->memo);
     in->busy = calloc((size_t)t->n_nodes + 1, sizeof *in->busy);
-    if (!base)
-        in->child = calloc((size_t)t->n_nodes + 1, sizeof *in->child);
-    if (!in->memo || !in->busy || (!base && !in->child)) {
+    if (!in->memo || !in->busy) {
         free(in->memo);
         free(in->busy);
-        free(in->child);
         free(in);
         return NULL;
     }
@@ -106,7 +98,7 @@ static instance *get_variant(compiler *c, instance *in, int variant)
 {
     instance *b = in->base;
     if (!b->variants[variant]) {
-        if (!new_instance(c, b->tree, variant, b, b->parent, b->parent_node)) {
+        if (!new_instance(c, b->tree, variant, b)) {
             fail(c, "out of memory%s%s", "", "");
             return NULL;
         }
@@ -246,34 +238,6 @@ static source resolve_input(compiler *c, instance *in, int node, int k)
     return convert(c, s, sock->type);
 }
 
-static const char *node_name(const sg_node *n) { return n->name; }
-
-static source resolve_group_output(compiler *c, instance *in, int node, int socket)
-{
-    instance *base = in->base;
-    if (!base->child[node]) {
-        const sg_tree *gt = &c->g->groups[in->tree->nodes[node].group];
-        base->child[node] = new_instance(c, gt, 0, NULL, base, node);
-        if (!base->child[node]) {
-            fail(c, "out of memory%s%s", "", "");
-            return (source){0};
-        }
-    }
-    instance *child = get_variant(c, base->child[node], in->variant);
-    if (!child)
-        return (source){0};
-    const sg_tree *gt = child->tree;
-    /* The first Group Output node is the active one (Blender marks one active; our
-     * format keeps one). An unlinked output yields the interface default. */
-    for (int i = 0; i < gt->n_nodes; i++) {
-        if (strcmp(gt->nodes[i].type->idname, "NodeGroupOutput") == 0)
-            return resolve_input(c, child, i, socket);
-    }
-    source s = {.is_const = true, .type = gt->iface_out[socket].type, .reg = -1};
-    memcpy(s.value, gt->iface_out[socket].value, sizeof s.value);
-    return s;
-}
-
 static source emit_node(compiler *c, instance *in, int node, int socket);
 
 static source resolve_output(compiler *c, instance *in, int node, int socket)
@@ -285,26 +249,13 @@ static source resolve_output(compiler *c, instance *in, int node, int socket)
         fail(c, "graph too deep to compile (over %s nested links)%s", "10000", "");
         return none;
     }
-    const sg_tree *t = in->tree;
-    const sg_node *n = &t->nodes[node];
-    const char *id = n->type->idname;
+    const sg_node *n = &in->tree->nodes[node];
+    /* Flattening left no reroute, group or Value/RGB node to resolve through. */
+    assert(!(n->type->flags & SG_NODE_STRUCTURAL) && n->type->role != SG_ROLE_CONSTANT);
     source s;
-    if (!strcmp(id, "NodeReroute")) {
-        s = resolve_input(c, in, node, 0);
-    } else if (!strcmp(id, "NodeGroupInput")) {
-        /* Back out into the parent, in the same variant. */
-        instance *parent = get_variant(c, in->base->parent, in->variant);
-        s = parent ? resolve_input(c, parent, in->base->parent_node, socket) : none;
-    } else if (n->group >= 0) {
-        s = resolve_group_output(c, in, node, socket);
-    } else if (!strcmp(id, "ShaderNodeValue") || !strcmp(id, "ShaderNodeRGB")) {
-        s.is_const = true;
-        s.type = n->out[socket].type;
-        s.reg = -1;
-        memcpy(s.value, n->out[socket].value, sizeof s.value);
-    } else if (n->out[socket].type == SG_SOCKET_SHADER || !n->type->kernel) {
+    if (n->out[socket].type == SG_SOCKET_SHADER || !n->type->kernel) {
         fail(c, "node \"%s\": output \"%s\" is a shader or has no value to evaluate",
-             node_name(n), n->out[socket].identifier);
+             n->name, n->out[socket].identifier);
         s = none;
     } else {
         s = emit_node(c, in, node, socket);
@@ -325,7 +276,7 @@ static source emit_node(compiler *c, instance *in, int node, int socket)
         if (in->busy[node])
             return fail(c, "node \"%s\": cycle%s", n->name, ""), none;
         in->busy[node] = 1;
-        bool bump = !strcmp(t->idname, "ShaderNodeBump");
+        bool bump = (t->flags & SG_NODE_HEIGHT_OFFSETS) != 0;
         int n_in = t->n_inputs + (bump ? 2 : 0);
         int *regs_in = malloc(sizeof(int) * (size_t)(n_in + 1));
         if (!regs_in)
@@ -396,7 +347,6 @@ static source emit_node(compiler *c, instance *in, int node, int socket)
         }
         in->memo[node] = index + 1;
         in->busy[node] = 0;
-        (void)varies;
     }
     /* Allocate the output register on first use. */
     sg_instruction *ins = &p->instr[in->memo[node] - 1];
@@ -427,7 +377,7 @@ int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err)
 static sg_program *compile_flat(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
                                 const sg_compile_options *opt, sg_error *err)
 {
-    compiler c = {.g = g, .err = err};
+    compiler c = {.err = err};
     sg_program *p = calloc(1, sizeof *p);
     if (!p) {
         sg_error_set(err, "out of memory");
@@ -438,7 +388,9 @@ static sg_program *compile_flat(const sg_graph *g, const sg_socket_ref *refs, in
     p->n_outputs = n_refs;
     p->output_reg = calloc((size_t)n_refs + 1, sizeof *p->output_reg);
     p->output_type = calloc((size_t)n_refs + 1, sizeof *p->output_type);
-    instance *main = new_instance(&c, &g->main, 0, NULL, NULL, -1);
+    /* The only caller passes sg_fold_for_compile's result: one flat tree. */
+    assert(g->n_groups == 0);
+    instance *main = new_instance(&c, &g->main, 0, NULL);
     if (!p->output_reg || !p->output_type || !main)
         fail(&c, "out of memory%s%s", "", "");
     for (int k = 0; k < n_refs && !c.failed; k++) {
@@ -476,7 +428,6 @@ static sg_program *compile_flat(const sg_graph *g, const sg_socket_ref *refs, in
     for (int i = 0; i < c.n_all; i++) {
         free(c.all[i]->memo);
         free(c.all[i]->busy);
-        free(c.all[i]->child);
         free(c.all[i]);
     }
     free(c.all);

@@ -354,8 +354,9 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
         return sg_error_set(c->err, "%s: %s: unknown node type \"%s\"", c->source, w,
                             type->valuestring);
     const char *id = n->type->idname;
+    sg_node_role role = n->type->role;
     bool in_group = t != &c->g->main;
-    if (!in_group && (!strcmp(id, "NodeGroupInput") || !strcmp(id, "NodeGroupOutput")))
+    if (!in_group && (role == SG_ROLE_GROUP_INPUT || role == SG_ROLE_GROUP_OUTPUT))
         return sg_error_set(c->err, "%s: %s: %s is only allowed inside a group", c->source, w, id);
 
     const cJSON *label = cJSON_GetObjectItemCaseSensitive(j, "label");
@@ -377,7 +378,7 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
 
     /* Sockets: from the group interface for group nodes, else from the type. */
     int rc;
-    if (!strcmp(id, "ShaderNodeGroup")) {
+    if (role == SG_ROLE_GROUP) {
         const cJSON *gname = cJSON_GetObjectItemCaseSensitive(j, "group");
         if (!cJSON_IsString(gname))
             return sg_error_set(c->err, "%s: %s: group node needs \"group\"", c->source, w);
@@ -388,9 +389,9 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
         const sg_tree *gt = &c->g->groups[n->group];
         rc = set_sockets_from_iface(n, gt->iface_in, gt->n_iface_in, gt->iface_out,
                                     gt->n_iface_out);
-    } else if (!strcmp(id, "NodeGroupInput")) {
+    } else if (role == SG_ROLE_GROUP_INPUT) {
         rc = set_sockets_from_iface(n, NULL, 0, t->iface_in, t->n_iface_in);
-    } else if (!strcmp(id, "NodeGroupOutput")) {
+    } else if (role == SG_ROLE_GROUP_OUTPUT) {
         rc = set_sockets_from_iface(n, t->iface_out, t->n_iface_out, NULL, 0);
     } else {
         rc = set_sockets_from_type(n);
@@ -455,7 +456,7 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     }
     /* Output values: only Value and RGB keep their value on the output. */
     const cJSON *outs = cJSON_GetObjectItemCaseSensitive(j, "outputs");
-    bool value_node = !strcmp(id, "ShaderNodeValue") || !strcmp(id, "ShaderNodeRGB");
+    bool value_node = role == SG_ROLE_CONSTANT;
     if (outs && (!value_node || !cJSON_IsObject(outs)))
         return sg_error_set(c->err, "%s: %s.outputs: only Value and RGB nodes take an object of "
                             "output values", c->source, w);
@@ -549,8 +550,7 @@ static int parse_link(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
         if (t->links[k].to_node == l->to_node && t->links[k].to_socket == l->to_socket)
             return sg_error_set(c->err, "%s: %s: input \"%s\" of \"%s\" already has a link (%slinks[%d])",
                                 c->source, w, v[3], v[2], tw, k);
-    bool reroute = !strcmp(from->type->idname, "NodeReroute") ||
-                   !strcmp(to->type->idname, "NodeReroute");
+    bool reroute = from->type->role == SG_ROLE_REROUTE || to->type->role == SG_ROLE_REROUTE;
     if (!reroute && !types_linkable(from->out[l->from_socket].type, to->in[l->to_socket].type))
         return sg_error_set(c->err, "%s: %s: cannot link %s socket \"%s\" to %s socket \"%s\"",
                             c->source, w, sg_socket_type_name(from->out[l->from_socket].type), v[1],
@@ -573,7 +573,7 @@ static int resolve_reroutes(const load_ctx *c, sg_tree *t)
     tree_where(c->g, t, tw, sizeof tw);
     for (int i = 0; i < t->n_nodes; i++) {
         sg_node *n = &t->nodes[i];
-        if (strcmp(n->type->idname, "NodeReroute") != 0)
+        if (n->type->role != SG_ROLE_REROUTE)
             continue;
         int cur = i, hops = 0;
         sg_socket_type type = SG_SOCKET_COLOR;
@@ -582,7 +582,7 @@ static int resolve_reroutes(const load_ctx *c, sg_tree *t)
             if (l < 0)
                 break;
             const sg_node *src = &t->nodes[t->links[l].from_node];
-            if (strcmp(src->type->idname, "NodeReroute") != 0) {
+            if (src->type->role != SG_ROLE_REROUTE) {
                 type = src->out[t->links[l].from_socket].type;
                 break;
             }
@@ -779,7 +779,7 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
     free(state);
     bool has_output = false;
     for (int i = 0; i < g->main.n_nodes; i++)
-        has_output |= !strcmp(g->main.nodes[i].type->idname, "ShaderNodeOutputMaterial");
+        has_output |= g->main.nodes[i].type->role == SG_ROLE_MATERIAL_OUTPUT;
     if (!has_output)
         return sg_error_set(c->err, "%s: nodes: no Material Output node (ShaderNodeOutputMaterial)",
                             c->source);
@@ -906,7 +906,7 @@ const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
     /* The active output: Blender marks one; with several, the first marked wins. */
     for (int i = 0; i < t->n_nodes; i++) {
         const sg_node *n = &t->nodes[i];
-        if (strcmp(n->type->idname, "ShaderNodeOutputMaterial") != 0)
+        if (n->type->role != SG_ROLE_MATERIAL_OUTPUT)
             continue;
         int k = sg_node_type_prop_index(n->type, "is_active_output");
         if (out < 0 || (k >= 0 && n->prop[k]))
@@ -926,12 +926,12 @@ const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
             return NULL;
         }
         const sg_node *from = &t->nodes[t->links[l].from_node];
-        if (!strcmp(from->type->idname, "NodeReroute")) {
+        if (from->type->role == SG_ROLE_REROUTE) {
             node = t->links[l].from_node;
             socket = 0;
             continue;
         }
-        if (strcmp(from->type->idname, "ShaderNodeBsdfPrincipled") != 0) {
+        if (from->type->role != SG_ROLE_BSDF) {
             sg_error_set(err, "%s: the Surface shader is \"%s\" (%s); only a Principled BSDF "
                          "can be rendered", g->name, from->name, from->type->idname);
             return NULL;
@@ -1030,10 +1030,9 @@ static cJSON *ramp_json(const sg_color_ramp *r)
 /* Default value of input k of node n, as a freshly loaded node would have it. */
 static const float *input_default(const sg_graph *g, const sg_tree *t, const sg_node *n, int k)
 {
-    const char *id = n->type->idname;
     if (n->group >= 0)
         return g->groups[n->group].iface_in[k].value;
-    if (!strcmp(id, "NodeGroupOutput"))
+    if (n->type->role == SG_ROLE_GROUP_OUTPUT)
         return t->iface_out[k].value;
     if (n->type->flags & SG_NODE_STRUCTURAL)
         return NULL;
@@ -1069,13 +1068,13 @@ static cJSON *node_json(const sg_graph *g, const sg_tree *t, const sg_node *n)
         const float *def = input_default(g, t, n, k);
         if (n->in[k].type == SG_SOCKET_SHADER || (def && same_value(def, n->in[k].value, n->in[k].type)))
             continue;
-        if (!def && !strcmp(n->type->idname, "NodeReroute"))
+        if (!def && n->type->role == SG_ROLE_REROUTE)
             continue;
         if (!ins)
             ins = cJSON_AddObjectToObject(o, "inputs");
         cJSON_AddItemToObject(ins, n->in[k].identifier, value_json(n->in[k].value, n->in[k].type));
     }
-    if (!strcmp(n->type->idname, "ShaderNodeValue") || !strcmp(n->type->idname, "ShaderNodeRGB")) {
+    if (n->type->role == SG_ROLE_CONSTANT) {
         cJSON *outs = cJSON_AddObjectToObject(o, "outputs");
         cJSON_AddItemToObject(outs, n->out[0].identifier, value_json(n->out[0].value, n->out[0].type));
     }

@@ -1,6 +1,6 @@
 /*
  * Internal to shadergraph: the in-memory graph that graph.c loads and saves and
- * compile.c flattens. Invariants after a successful load (graph.c checks them all):
+ * flatten.c flattens. Invariants after a successful load (graph.c checks them all):
  *   - every node has a known type, every link joins existing, available sockets,
  *     an input has at most one link, no tree has a cycle, no group contains itself;
  *   - every value is finite; enum properties are valid indices;

@@ -4,8 +4,9 @@
  * Each node family lives in one file under kernels/ (like Cycles' kernel/svm/): pure
  * scalar functions of the node's inputs, a batch loop over them, and the table that
  * describes the node to the loader and the compiler (its Blender idname, sockets with
- * Blender's identifiers and defaults, and enum properties). The registry in
- * node_registry.c lists every type; nothing else needs to change to add one.
+ * Blender's identifiers and defaults, enum properties, flags, its role if it is more
+ * than a kernel, and its constant folding). The registry in node_registry.c lists every
+ * type; nothing else needs to change to add one.
  */
 #ifndef IMSYNTH_SHADERGRAPH_NODE_TYPE_H
 #define IMSYNTH_SHADERGRAPH_NODE_TYPE_H
@@ -94,14 +95,38 @@ typedef struct sg_kernel_args {
      * times, once per offset, and passes the two offset heights as extra inputs after
      * the Bump type's declared ones. */
     int offset;
-    /* Set when the compiler folds a node whose inputs are all constant. Cycles does
-     * that on the host CPU, whose code has no fused multiply-adds, while its render
-     * kernel fuses some: a kernel that writes fmaf() where Blender's kernel fuses must
-     * compute unfused when host_fold is set (kernels/math.c). */
+    /* Set when the folder (fold.c) computes a node whose inputs are all constant.
+     * Cycles does that on the host CPU, whose code has no fused multiply-adds, while
+     * its render kernel fuses some: a kernel that writes fmaf() where Blender's kernel
+     * fuses must compute unfused when host_fold is set (kernels/math.c), and one whose
+     * host fold uses another formula computes that one (Invert, kernels/color.c). */
     bool host_fold;
 } sg_kernel_args;
 
 typedef void (*sg_kernel_fn)(const sg_kernel_args *a);
+
+/* A node type's constant folding (Cycles' ShaderNode::constant_fold): the algebraic
+ * simplifications Cycles makes to a node with some constant inputs, x * 0 = 0, Mix
+ * with factor 1 = B, ... (the API is shadergraph/fold.h). Returns whether the graph
+ * changed. Folding every input constant into the kernel's value is not the hook's
+ * business: SG_NODE_FOLD_CONSTANT asks for it, and the hook then only sees nodes with
+ * at least one input that is not constant. */
+typedef struct sg_fold sg_fold;
+typedef bool (*sg_fold_fn)(sg_fold *x);
+
+/* What a node is to the graph algorithms (loading, flattening, extraction), for the
+ * types that are more than a kernel; SG_ROLE_NONE for the rest. Code outside kernels/
+ * asks these, never idnames. */
+typedef enum sg_node_role {
+    SG_ROLE_NONE = 0,
+    SG_ROLE_GROUP,        /* an instance of a group tree (sg_node.group) */
+    SG_ROLE_GROUP_INPUT,  /* inside a group: the group node's inputs */
+    SG_ROLE_GROUP_OUTPUT, /* inside a group: the group node's outputs; the first is active */
+    SG_ROLE_REROUTE,      /* passes input 0 through; takes the type of what feeds it */
+    SG_ROLE_CONSTANT,     /* Value, RGB: the value is stored on output 0 */
+    SG_ROLE_MATERIAL_OUTPUT, /* a root: what reaches it is the material */
+    SG_ROLE_BSDF          /* the surface shader the renderer understands */
+} sg_node_role;
 
 typedef struct sg_node_type {
     const char *idname; /* Blender bl_idname, e.g. "ShaderNodeMath" */
@@ -111,15 +136,25 @@ typedef struct sg_node_type {
     int n_outputs;
     const sg_prop_def *props;
     int n_props;
-    sg_kernel_fn kernel; /* NULL for structural nodes handled by the compiler (groups,
-                            reroutes, sinks) */
+    sg_kernel_fn kernel; /* NULL for structural nodes handled by the flattener (groups,
+                            reroutes) and for sinks */
     unsigned flags;
+    sg_fold_fn fold; /* NULL: nothing to fold beyond SG_NODE_FOLD_CONSTANT */
+    sg_node_role role;
 } sg_node_type;
 
 enum {
     SG_NODE_SINK = 1u << 0,      /* Principled BSDF, Material Output: only collects inputs */
     SG_NODE_STRUCTURAL = 1u << 1, /* group, group input/output, reroute: inlined away */
-    SG_NODE_READS_GEOMETRY = 1u << 2 /* reads a->geom at a->offset (Texture Coordinate) */
+    SG_NODE_READS_GEOMETRY = 1u << 2, /* reads a->geom at a->offset (Texture Coordinate) */
+    /* With every input constant, Cycles computes the node on the host and the node
+     * becomes its value (its all_inputs_constant fold): the folder runs the kernel with
+     * host_fold set. Textures, Map Range and Bump lack it: Cycles never folds them. */
+    SG_NODE_FOLD_CONSTANT = 1u << 3,
+    /* Reads its input "Height" also one pixel over in x and in y (Bump): the compiler
+     * evaluates that input's subgraph at geometry offsets 1 and 2 and passes the two
+     * values as extra inputs after the declared ones. */
+    SG_NODE_HEIGHT_OFFSETS = 1u << 4
 };
 
 /* Registry (node_registry.c). */

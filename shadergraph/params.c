@@ -33,14 +33,15 @@ static int find_params_group(const sg_graph *g)
 static int value_node_of_output(const sg_tree *t, int k)
 {
     for (int i = 0; i < t->n_nodes; i++) {
-        if (strcmp(t->nodes[i].type->idname, "NodeGroupOutput"))
+        if (t->nodes[i].type->role != SG_ROLE_GROUP_OUTPUT)
             continue;
-        /* The first Group Output is the active one (as in compile.c). */
+        /* The first Group Output is the active one (as in flatten.c). */
         int l = sg_tree_input_link(t, i, k);
         if (l < 0)
             return -1;
         int from = t->links[l].from_node;
-        return strcmp(t->nodes[from].type->idname, "ShaderNodeValue") ? -1 : from;
+        const sg_node *v = &t->nodes[from];
+        return v->type->role == SG_ROLE_CONSTANT && v->out[0].type == SG_SOCKET_FLOAT ? from : -1;
     }
     return -1;
 }
@@ -412,7 +413,7 @@ int sg_graph_bind_params(sg_graph *g, const sg_params *p, sg_error *err)
         t->iface_out[k].value[0] = v;
         /* The Group Output node's unlinked-input value mirrors the default. */
         for (int i = 0; i < t->n_nodes; i++)
-            if (!strcmp(t->nodes[i].type->idname, "NodeGroupOutput") && k < t->nodes[i].n_in)
+            if (t->nodes[i].type->role == SG_ROLE_GROUP_OUTPUT && k < t->nodes[i].n_in)
                 t->nodes[i].in[k].value[0] = v;
     }
     return 0;

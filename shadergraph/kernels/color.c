@@ -20,6 +20,7 @@
 #include <stdbool.h>
 #include <string.h>
 
+#include "shadergraph/fold.h"
 #include "shadergraph/kernels/color_util.h"
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
@@ -352,12 +353,107 @@ static const sg_prop_def mix_props[] = {
     {"clamp_result", SG_PROP_BOOL, NULL, 0},
 };
 
+/* Cycles' fold_mix / fold_mix_color, for Mix RGB and the colour Mix; also the blend
+ * rules the 4.x vector Mix uses (as BLEND_MIX). fac0/fac1: an unlinked factor equal to
+ * 0 / 1 after the factor clamp (if any). `clamp`: the result is saturated. */
+static bool mix_blend_fold(sg_fold *x, int blend, int fac, int a, int b, int out, bool clamp_factor,
+                           bool clamp)
+{
+    float fv = sg_fold_input_value(x, fac)[0];
+    if (clamp_factor)
+        fv = fv > 0.0f ? (fv < 1.0f ? fv : 1.0f) : 0.0f; /* NaN -> 0, as saturatef */
+    bool fac0 = sg_fold_input_constant(x, fac) && fv == 0.0f;
+    bool fac1 = sg_fold_input_constant(x, fac) && fv == 1.0f;
+    if (fac0 && blend != BLEND_LIGHTEN && blend != BLEND_DODGE && blend != BLEND_BURN) {
+        if (sg_fold_try_bypass(x, a, out, clamp))
+            return true;
+    }
+    bool same_link = sg_fold_inputs_same_link(x, a, b);
+    switch (blend) {
+    case BLEND_MIX: {
+        const float *va = sg_fold_input_value(x, a), *vb = sg_fold_input_value(x, b);
+        if (same_link)
+            return sg_fold_try_bypass(x, a, out, clamp);
+        if (sg_fold_input_constant(x, a) && sg_fold_input_constant(x, b) && va[0] == vb[0] &&
+            va[1] == vb[1] && va[2] == vb[2])
+            return sg_fold_try_bypass(x, a, out, clamp);
+        if (fac1)
+            return sg_fold_try_bypass(x, b, out, clamp);
+        break;
+    }
+    case BLEND_ADD:
+        if (sg_fold_input_equals(x, a, 0.0f) && fac1)
+            return sg_fold_try_bypass(x, b, out, clamp);
+        if (sg_fold_input_equals(x, b, 0.0f))
+            return sg_fold_try_bypass(x, a, out, clamp);
+        break;
+    case BLEND_SUBTRACT:
+        if (sg_fold_input_equals(x, b, 0.0f))
+            return sg_fold_try_bypass(x, a, out, clamp);
+        if (same_link && fac1)
+            return sg_fold_make_value(x, out, 0.0f);
+        break;
+    case BLEND_MULTIPLY:
+        if (sg_fold_input_equals(x, a, 1.0f) && fac1)
+            return sg_fold_try_bypass(x, b, out, clamp);
+        if (sg_fold_input_equals(x, b, 1.0f))
+            return sg_fold_try_bypass(x, a, out, clamp);
+        if (sg_fold_input_equals(x, a, 0.0f) || (sg_fold_input_equals(x, b, 0.0f) && fac1))
+            return sg_fold_make_value(x, out, 0.0f);
+        break;
+    case BLEND_DIVIDE:
+        if (sg_fold_input_equals(x, b, 1.0f))
+            return sg_fold_try_bypass(x, a, out, clamp);
+        if (sg_fold_input_equals(x, a, 0.0f))
+            return sg_fold_make_value(x, out, 0.0f);
+        break;
+    }
+    return false;
+}
+
+/* Cycles' MixNode / MixColorNode / MixFloatNode / MixVectorNode::constant_fold. Blender
+ * 3.x folds the float and vector Mix only when all inputs are constant. */
+static bool mix_fold(sg_fold *x)
+{
+    const int *prop = sg_fold_props(x);
+    bool clamp_factor = prop[MIX_PROP_CLAMP_FACTOR] == 1;
+    const int fac = MIX_IN_FACTOR_FLOAT;
+    if (prop[MIX_PROP_DATA_TYPE] == DATA_RGBA)
+        return mix_blend_fold(x, prop[MIX_PROP_BLEND_TYPE], fac, MIX_IN_A_COLOR, MIX_IN_B_COLOR,
+                              MIX_OUT_COLOR, clamp_factor, prop[MIX_PROP_CLAMP_RESULT] == 1);
+    if (sg_fold_mode(x) == SG_BLENDER_3)
+        return false;
+    if (prop[MIX_PROP_DATA_TYPE] == DATA_VECTOR) {
+        if (prop[MIX_PROP_FACTOR_MODE] == FACTOR_NON_UNIFORM)
+            return false;
+        return mix_blend_fold(x, BLEND_MIX, fac, MIX_IN_A_VECTOR, MIX_IN_B_VECTOR, MIX_OUT_VECTOR,
+                              clamp_factor, false);
+    }
+    /* FLOAT: factor 0 -> A; A, B the same link or equal constants -> A; factor 1 -> B. */
+    const int a = MIX_IN_A_FLOAT, b = MIX_IN_B_FLOAT, out = MIX_OUT_FLOAT;
+    float fv = sg_fold_input_value(x, fac)[0];
+    if (clamp_factor)
+        fv = fv > 0.0f ? (fv < 1.0f ? fv : 1.0f) : 0.0f;
+    bool fac_const = sg_fold_input_constant(x, fac);
+    if (fac_const && fv == 0.0f)
+        return sg_fold_try_bypass(x, a, out, false);
+    if (sg_fold_inputs_same_link(x, a, b))
+        return sg_fold_try_bypass(x, a, out, false);
+    if (sg_fold_input_constant(x, a) && sg_fold_input_constant(x, b) &&
+        sg_fold_input_value(x, a)[0] == sg_fold_input_value(x, b)[0])
+        return sg_fold_try_bypass(x, a, out, false);
+    if (fac_const && fv == 1.0f)
+        return sg_fold_try_bypass(x, b, out, false);
+    return false;
+}
+
 const sg_node_type node_type_mix = {
     "ShaderNodeMix",
     mix_inputs,  COUNT(mix_inputs),
     mix_outputs, COUNT(mix_outputs),
     mix_props,   COUNT(mix_props),
-    mix_kernel,  0,
+    mix_kernel,  SG_NODE_FOLD_CONSTANT,
+    mix_fold,
 };
 
 /* ---- MixRGB (legacy ShaderNodeMixRGB) --------------------------------------------- */
@@ -385,16 +481,25 @@ static const sg_prop_def mix_rgb_props[] = {
     {"use_clamp", SG_PROP_BOOL, NULL, 0},
 };
 
+static bool mix_rgb_fold(sg_fold *x)
+{
+    const int *prop = sg_fold_props(x);
+    return mix_blend_fold(x, prop[0], 0, 1, 2, 0, true, prop[2] == 1);
+}
+
 const sg_node_type node_type_mix_rgb = {
     "ShaderNodeMixRGB",
     mix_rgb_inputs,  COUNT(mix_rgb_inputs),
     mix_rgb_outputs, COUNT(mix_rgb_outputs),
     mix_rgb_props,   COUNT(mix_rgb_props),
-    mix_rgb_kernel,  0,
+    mix_rgb_kernel,  SG_NODE_FOLD_CONSTANT,
+    mix_rgb_fold,
 };
 
 /* ---- Invert ----------------------------------------------------------------------- */
 
+/* Cycles' kernel computes fac * (1 - c) + (1 - fac) * c, but its host fold computes
+ * interp(c, 1 - c, fac) = c + fac * ((1 - c) - c): the last bit can differ. */
 static void invert_kernel(const sg_kernel_args *a)
 {
     float *out = a->out[0];
@@ -405,9 +510,21 @@ static void invert_kernel(const sg_kernel_args *a)
     for (int c = 0; c < 3; c++) {
         const float *col = a->in[1] + (size_t)c * (size_t)n;
         float *o = out + (size_t)c * (size_t)n;
-        for (int i = 0; i < n; i++)
-            o[i] = fac[i] * (1.0f - col[i]) + (1.0f - fac[i]) * col[i];
+        if (a->host_fold)
+            for (int i = 0; i < n; i++)
+                o[i] = col[i] + fac[i] * ((1.0f - col[i]) - col[i]);
+        else
+            for (int i = 0; i < n; i++)
+                o[i] = fac[i] * (1.0f - col[i]) + (1.0f - fac[i]) * col[i];
     }
+}
+
+/* Cycles' InvertNode::constant_fold: factor 0 -> the colour. */
+static bool invert_fold(sg_fold *x)
+{
+    if (sg_fold_input_constant(x, 0) && sg_fold_input_value(x, 0)[0] == 0.0f)
+        return sg_fold_try_bypass(x, 1, 0, false);
+    return false;
 }
 
 static const sg_socket_def invert_inputs[] = {
@@ -423,7 +540,8 @@ const sg_node_type node_type_invert = {
     invert_inputs,  COUNT(invert_inputs),
     invert_outputs, COUNT(invert_outputs),
     NULL,           0,
-    invert_kernel,  0,
+    invert_kernel,  SG_NODE_FOLD_CONSTANT,
+    invert_fold,
 };
 
 /* ---- Color Ramp ------------------------------------------------------------------- */
@@ -775,14 +893,15 @@ const sg_node_type node_type_color_ramp = {
     color_ramp_inputs,  COUNT(color_ramp_inputs),
     color_ramp_outputs, COUNT(color_ramp_outputs),
     color_ramp_props,   COUNT(color_ramp_props),
-    color_ramp_kernel,  0,
+    color_ramp_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
 /* ---- RGB and Value ---------------------------------------------------------------- */
 
-/* These hold their value on the output socket ("outputs" in the JSON). The compiler
- * turns them into constants; the kernels below only run if it does not, and then can
- * only give Blender's default value (grey 0.5 / 0). */
+/* These hold their value on the output socket ("outputs" in the JSON). Flattening
+ * (flatten.c, SG_ROLE_CONSTANT) turns them into constants on the inputs they feed; the
+ * kernels below would only run if it did not, and then could only give Blender's
+ * default value (grey 0.5 / 0). */
 static void rgb_kernel(const sg_kernel_args *a)
 {
     if (a->out[0])
@@ -803,6 +922,7 @@ static const sg_socket_def rgb_outputs[] = {
 
 const sg_node_type node_type_rgb = {
     "ShaderNodeRGB", NULL, 0, rgb_outputs, COUNT(rgb_outputs), NULL, 0, rgb_kernel, 0,
+    .role = SG_ROLE_CONSTANT,
 };
 
 static const sg_socket_def value_outputs[] = {
@@ -811,4 +931,5 @@ static const sg_socket_def value_outputs[] = {
 
 const sg_node_type node_type_value = {
     "ShaderNodeValue", NULL, 0, value_outputs, COUNT(value_outputs), NULL, 0, value_kernel, 0,
+    .role = SG_ROLE_CONSTANT,
 };

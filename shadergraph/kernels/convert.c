@@ -12,6 +12,7 @@
 #include <stdbool.h>
 #include <string.h>
 
+#include "shadergraph/fold.h"
 #include "shadergraph/kernels/color_util.h"
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
@@ -52,7 +53,7 @@ const sg_node_type node_type_combine_xyz = {
     combine_xyz_inputs,  COUNT(combine_xyz_inputs),
     combine_xyz_outputs, COUNT(combine_xyz_outputs),
     NULL,                0,
-    combine_xyz_kernel,  0,
+    combine_xyz_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
 static const sg_socket_def separate_xyz_inputs[] = {
@@ -69,7 +70,7 @@ const sg_node_type node_type_separate_xyz = {
     separate_xyz_inputs,  COUNT(separate_xyz_inputs),
     separate_xyz_outputs, COUNT(separate_xyz_outputs),
     NULL,                 0,
-    separate_xyz_kernel,  0,
+    separate_xyz_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
 /* ---- Combine Color / Separate Color ----------------------------------------------- */
@@ -148,7 +149,7 @@ const sg_node_type node_type_combine_color = {
     combine_color_inputs,  COUNT(combine_color_inputs),
     combine_color_outputs, COUNT(combine_color_outputs),
     color_mode_props,      COUNT(color_mode_props),
-    combine_color_kernel,  0,
+    combine_color_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
 static const sg_socket_def separate_color_inputs[] = {
@@ -165,7 +166,7 @@ const sg_node_type node_type_separate_color = {
     separate_color_inputs,  COUNT(separate_color_inputs),
     separate_color_outputs, COUNT(separate_color_outputs),
     color_mode_props,       COUNT(color_mode_props),
-    separate_color_kernel,  0,
+    separate_color_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
 /* ---- Mapping ---------------------------------------------------------------------- */
@@ -283,10 +284,26 @@ static const sg_prop_def mapping_props[] = {
     {"vector_type", SG_PROP_ENUM, vector_type_values, MAPPING_POINT},
 };
 
+/* Cycles' MappingNode::constant_fold: a zero scale maps everything to 0; an identity
+ * transform (no rotation, unit scale, and no translation or a direction) passes the
+ * vector through, for every vector type but NORMAL. */
+static bool mapping_fold(sg_fold *x)
+{
+    enum { vec = 0, loc = 1, rot = 2, sc = 3 };
+    int type = sg_fold_props(x)[0];
+    if (sg_fold_input_equals(x, sc, 0.0f))
+        return sg_fold_make_value(x, 0, 0.0f);
+    if (type != MAPPING_NORMAL && (sg_fold_input_equals(x, loc, 0.0f) || type == MAPPING_VECTOR) &&
+        sg_fold_input_equals(x, rot, 0.0f) && sg_fold_input_equals(x, sc, 1.0f))
+        return sg_fold_try_bypass(x, vec, 0, false);
+    return false;
+}
+
 const sg_node_type node_type_mapping = {
     "ShaderNodeMapping",
     mapping_inputs,  COUNT(mapping_inputs),
     mapping_outputs, COUNT(mapping_outputs),
     mapping_props,   COUNT(mapping_props),
-    mapping_kernel,  0,
+    mapping_kernel,  SG_NODE_FOLD_CONSTANT,
+    mapping_fold,
 };

@@ -7,6 +7,7 @@
  * Cycles' svm_node_set_bump does: a surface gradient from the height differences along
  * the two differential directions, Rx = dPdy x N and Ry = N x dPdx.
  */
+#include "shadergraph/fold.h"
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
@@ -129,9 +130,21 @@ static void bump_kernel(const sg_kernel_args *a)
     }
 }
 
+/* Cycles' BumpNode::constant_fold: without a Height link the normal is the Normal
+ * input's (when that is linked: an implicit N is not a link to point at). Bump is
+ * never folded to a constant. */
+static bool bump_fold(sg_fold *x)
+{
+    if (!sg_fold_input_linked(x, BUMP_HEIGHT) && sg_fold_input_linked(x, BUMP_NORMAL))
+        return sg_fold_try_bypass(x, BUMP_NORMAL, 0, false);
+    return false;
+}
+
 const sg_node_type node_type_bump = {
     .idname = "ShaderNodeBump",
     .inputs = bump_in, .n_inputs = COUNT(bump_in),
     .outputs = bump_out, .n_outputs = COUNT(bump_out),
     .props = bump_props, .n_props = COUNT(bump_props),
-    .kernel = bump_kernel};
+    .kernel = bump_kernel,
+    .flags = SG_NODE_HEIGHT_OFFSETS,
+    .fold = bump_fold};

@@ -30,15 +30,16 @@
  * function differently from ours.
  *
  * Non-finite results are returned as computed (Cycles' film later writes 0 for any
- * non-finite sample component; the reference comparison accounts for that). Not
- * reproduced here: Cycles' compile-time constant folding (scene/constant_fold.cpp),
- * which turns x * 0 and 0 / x with a constant 0 into 0 even when x is inf or NaN at
- * run time; only non-finite values can tell the difference.
+ * non-finite sample component; the reference comparison accounts for that). Cycles'
+ * compile-time folds (scene/constant_fold.cpp), which turn x * 0 and 0 / x with a
+ * constant 0 into 0 even when x is inf or NaN at run time, are math_fold and
+ * vector_math_fold below; the kernels themselves never see them.
  */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
 
+#include "shadergraph/fold.h"
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
@@ -300,16 +301,58 @@ static void math_kernel(const sg_kernel_args *a)
 
 #undef MATH_LOOP
 
+/* Cycles' fold_math (MathNode::constant_fold once not every input is constant):
+ * x+0, 0+x, x-0, x*1, 1*x, x/1, x^1 -> x; x*0, 0*x, 0/x -> 0; 1^x, x^0 -> 1. With
+ * use_clamp, Cycles' Clamp node follows: constants are saturated, and a bypass would
+ * leave clamp(x), which the node itself computes, so the node is kept instead. */
+static bool math_fold(sg_fold *x)
+{
+    const int *prop = sg_fold_props(x);
+    bool clamp = prop[MATH_PROP_USE_CLAMP] == 1;
+    enum { v1 = 0, v2 = 1, out = 0 };
+    switch (prop[MATH_PROP_OPERATION]) {
+    case M_ADD:
+        if (sg_fold_input_equals(x, v1, 0.0f))
+            return !clamp && sg_fold_try_bypass(x, v2, out, false);
+        if (sg_fold_input_equals(x, v2, 0.0f))
+            return !clamp && sg_fold_try_bypass(x, v1, out, false);
+        break;
+    case M_SUBTRACT:
+        if (sg_fold_input_equals(x, v2, 0.0f))
+            return !clamp && sg_fold_try_bypass(x, v1, out, false);
+        break;
+    case M_MULTIPLY:
+        if (sg_fold_input_equals(x, v1, 1.0f))
+            return !clamp && sg_fold_try_bypass(x, v2, out, false);
+        if (sg_fold_input_equals(x, v2, 1.0f))
+            return !clamp && sg_fold_try_bypass(x, v1, out, false);
+        if (sg_fold_input_equals(x, v1, 0.0f) || sg_fold_input_equals(x, v2, 0.0f))
+            return sg_fold_make_value(x, out, 0.0f);
+        break;
+    case M_DIVIDE:
+        if (sg_fold_input_equals(x, v2, 1.0f))
+            return !clamp && sg_fold_try_bypass(x, v1, out, false);
+        if (sg_fold_input_equals(x, v1, 0.0f))
+            return sg_fold_make_value(x, out, 0.0f);
+        break;
+    case M_POWER:
+        if (sg_fold_input_equals(x, v1, 1.0f) || sg_fold_input_equals(x, v2, 0.0f))
+            return sg_fold_make_value(x, out, 1.0f);
+        if (sg_fold_input_equals(x, v2, 1.0f))
+            return !clamp && sg_fold_try_bypass(x, v1, out, false);
+        break;
+    }
+    return false;
+}
+
 const sg_node_type node_type_math = {
-    "ShaderNodeMath",
-    math_inputs,
-    (int)(sizeof math_inputs / sizeof math_inputs[0]),
-    math_outputs,
-    (int)(sizeof math_outputs / sizeof math_outputs[0]),
-    math_props,
-    (int)(sizeof math_props / sizeof math_props[0]),
-    math_kernel,
-    0,
+    .idname = "ShaderNodeMath",
+    .inputs = math_inputs, .n_inputs = (int)(sizeof math_inputs / sizeof math_inputs[0]),
+    .outputs = math_outputs, .n_outputs = (int)(sizeof math_outputs / sizeof math_outputs[0]),
+    .props = math_props, .n_props = (int)(sizeof math_props / sizeof math_props[0]),
+    .kernel = math_kernel,
+    .flags = SG_NODE_FOLD_CONSTANT,
+    .fold = math_fold,
 };
 
 /* ==== Vector Math ================================================================== */
@@ -449,16 +492,66 @@ static void vector_math_kernel(const sg_kernel_args *a)
 #undef VECTOR_LOOP
 #undef COMPONENTWISE2
 
+/* Cycles' fold_vector_math: the Math rules for ADD, SUBTRACT, MULTIPLY, DIVIDE (x/0 ->
+ * 0 too) and SCALE; zero for DOT and CROSS with a zero operand, LENGTH and ABSOLUTE of
+ * zero. A bypass feeds the Vector output only: the Value output has another type. */
+static bool vector_math_fold(sg_fold *x)
+{
+    enum { v1 = 0, v2 = 1, sc = 3, ov = 0, of = 1 };
+    bool zero = false;
+    int pass = -1;
+    switch (sg_fold_props(x)[VMATH_PROP_OPERATION]) {
+    case V_ADD:
+        pass = sg_fold_input_equals(x, v1, 0.0f) ? v2 : sg_fold_input_equals(x, v2, 0.0f) ? v1 : -1;
+        break;
+    case V_SUBTRACT:
+        pass = sg_fold_input_equals(x, v2, 0.0f) ? v1 : -1;
+        break;
+    case V_MULTIPLY:
+        zero = sg_fold_input_equals(x, v1, 0.0f) || sg_fold_input_equals(x, v2, 0.0f);
+        pass = zero ? -1
+               : sg_fold_input_equals(x, v1, 1.0f) ? v2
+               : sg_fold_input_equals(x, v2, 1.0f) ? v1
+                                                   : -1;
+        break;
+    case V_DIVIDE:
+        zero = sg_fold_input_equals(x, v1, 0.0f) || sg_fold_input_equals(x, v2, 0.0f);
+        pass = zero ? -1 : sg_fold_input_equals(x, v2, 1.0f) ? v1 : -1;
+        break;
+    case V_DOT_PRODUCT:
+    case V_CROSS_PRODUCT:
+        zero = sg_fold_input_equals(x, v1, 0.0f) || sg_fold_input_equals(x, v2, 0.0f);
+        break;
+    case V_LENGTH:
+    case V_ABSOLUTE:
+        zero = sg_fold_input_equals(x, v1, 0.0f);
+        break;
+    case V_SCALE:
+        zero = sg_fold_input_equals(x, v1, 0.0f) || sg_fold_input_equals(x, sc, 0.0f);
+        pass = zero ? -1 : sg_fold_input_equals(x, sc, 1.0f) ? v1 : -1;
+        break;
+    }
+    bool changed = false;
+    if (zero) {
+        changed |= sg_fold_make_value(x, ov, 0.0f);
+        changed |= sg_fold_make_value(x, of, 0.0f);
+    } else if (pass >= 0) {
+        changed |= sg_fold_try_bypass(x, pass, ov, false);
+    }
+    return changed;
+}
+
 const sg_node_type node_type_vector_math = {
-    "ShaderNodeVectorMath",
-    vector_math_inputs,
-    (int)(sizeof vector_math_inputs / sizeof vector_math_inputs[0]),
-    vector_math_outputs,
-    (int)(sizeof vector_math_outputs / sizeof vector_math_outputs[0]),
-    vector_math_props,
-    (int)(sizeof vector_math_props / sizeof vector_math_props[0]),
-    vector_math_kernel,
-    0,
+    .idname = "ShaderNodeVectorMath",
+    .inputs = vector_math_inputs,
+    .n_inputs = (int)(sizeof vector_math_inputs / sizeof vector_math_inputs[0]),
+    .outputs = vector_math_outputs,
+    .n_outputs = (int)(sizeof vector_math_outputs / sizeof vector_math_outputs[0]),
+    .props = vector_math_props,
+    .n_props = (int)(sizeof vector_math_props / sizeof vector_math_props[0]),
+    .kernel = vector_math_kernel,
+    .flags = SG_NODE_FOLD_CONSTANT,
+    .fold = vector_math_fold,
 };
 
 /* ==== Clamp ======================================================================== */
@@ -509,7 +602,7 @@ const sg_node_type node_type_clamp = {
     clamp_props,
     (int)(sizeof clamp_props / sizeof clamp_props[0]),
     clamp_kernel,
-    0,
+    SG_NODE_FOLD_CONSTANT,
 };
 
 /* ==== Map Range ==================================================================== */
@@ -692,5 +785,5 @@ const sg_node_type node_type_map_range = {
     map_range_props,
     (int)(sizeof map_range_props / sizeof map_range_props[0]),
     map_range_kernel,
-    0,
+    0, /* Cycles folds no Map Range, not even an all-constant one */
 };

@@ -1,8 +1,8 @@
 /*
- * Node types the compiler handles itself: groups and their interface nodes and
- * reroutes are inlined away; Principled BSDF and Material Output are sinks whose
- * inputs are read (by the renderer, or as sockets to evaluate) but which compute
- * nothing here. Their socket tables still matter: they define the identifiers,
+ * Node types that are roles rather than kernels (sg_node_role): groups, their interface
+ * nodes and reroutes are inlined away by flattening (flatten.c); Principled BSDF and
+ * Material Output are sinks whose inputs are read (by the renderer, or as sockets to
+ * evaluate) but which compute nothing here. Their socket tables still matter: they define the identifiers,
  * types and defaults that graphs may use (Blender 4.x vocabulary).
  */
 #include "shadergraph/node_type.h"
@@ -10,11 +10,11 @@
 #define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 const sg_node_type node_type_group = {
-    .idname = "ShaderNodeGroup", .flags = SG_NODE_STRUCTURAL};
+    .idname = "ShaderNodeGroup", .flags = SG_NODE_STRUCTURAL, .role = SG_ROLE_GROUP};
 const sg_node_type node_type_group_input = {
-    .idname = "NodeGroupInput", .flags = SG_NODE_STRUCTURAL};
+    .idname = "NodeGroupInput", .flags = SG_NODE_STRUCTURAL, .role = SG_ROLE_GROUP_INPUT};
 const sg_node_type node_type_group_output = {
-    .idname = "NodeGroupOutput", .flags = SG_NODE_STRUCTURAL};
+    .idname = "NodeGroupOutput", .flags = SG_NODE_STRUCTURAL, .role = SG_ROLE_GROUP_OUTPUT};
 
 static const sg_socket_def reroute_in[] = {{"Input", "Input", SG_SOCKET_COLOR, {0, 0, 0, 1}}};
 static const sg_socket_def reroute_out[] = {{"Output", "Output", SG_SOCKET_COLOR, {0, 0, 0, 1}}};
@@ -22,7 +22,7 @@ const sg_node_type node_type_reroute = {
     .idname = "NodeReroute",
     .inputs = reroute_in, .n_inputs = 1,
     .outputs = reroute_out, .n_outputs = 1,
-    .flags = SG_NODE_STRUCTURAL};
+    .flags = SG_NODE_STRUCTURAL, .role = SG_ROLE_REROUTE};
 
 /* Blender 4.3's Principled BSDF, in its socket order. */
 static const sg_socket_def principled_in[] = {
@@ -70,7 +70,7 @@ const sg_node_type node_type_bsdf_principled = {
     .inputs = principled_in, .n_inputs = COUNT(principled_in),
     .outputs = principled_out, .n_outputs = 1,
     .props = principled_props, .n_props = COUNT(principled_props),
-    .flags = SG_NODE_SINK};
+    .flags = SG_NODE_SINK, .role = SG_ROLE_BSDF};
 
 static const sg_socket_def output_in[] = {
     {"Surface", "Surface", SG_SOCKET_SHADER, {0}},
@@ -87,4 +87,4 @@ const sg_node_type node_type_output_material = {
     .idname = "ShaderNodeOutputMaterial",
     .inputs = output_in, .n_inputs = COUNT(output_in),
     .props = output_props, .n_props = COUNT(output_props),
-    .flags = SG_NODE_SINK};
+    .flags = SG_NODE_SINK, .role = SG_ROLE_MATERIAL_OUTPUT};

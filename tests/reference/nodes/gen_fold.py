@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Cases for Cycles' constant folding, which Blender applies before it renders and which
-imsynth's compiler therefore reproduces (shadergraph/extract.c, "Cycles' constant
-folding"). Each case is built so that the folded and the unfolded evaluation differ far
+imsynth's compiler therefore reproduces (shadergraph/fold.c and each node type's fold
+beside its kernel). Each case is built so that the folded and the unfolded evaluation differ far
 beyond the tolerance, so the reference tells which one Blender computes. Plain python3.
 
 - fold_host_multiply_add: a Multiply Add with constant inputs is folded on Blender's

@@ -1,0 +1,70 @@
+/*
+ * Internal to shadergraph: the flat graph that flattening (flatten.c) builds, folding
+ * (fold.c) simplifies and extraction (extract.c) prunes, lays out and hands over.
+ *
+ * Invariants between the three steps:
+ *   - one tree, no groups: every node has a typed, non-structural type and no Value or
+ *     RGB node remains (their values sit on the inputs they fed);
+ *   - links join output sockets to input sockets of live nodes; an input has at most one;
+ *   - dead[i] marks a removed node; it stays in the arrays (indices stay stable) until
+ *     extract.c compacts them;
+ *   - after `failed` is set (err holds why) nothing more is built and the result is
+ *     discarded.
+ */
+#ifndef IMSYNTH_SHADERGRAPH_FLAT_H
+#define IMSYNTH_SHADERGRAPH_FLAT_H
+
+#include "shadergraph/graph_internal.h"
+
+typedef struct sg_flat {
+    sg_tree t;
+    int cap_nodes, cap_links;
+    bool *dead; /* per node, cap_nodes entries */
+    sg_error *err;
+    bool failed;
+    const sg_graph *src;
+    int n_contexts; /* group instances made so far: bounded like nodes */
+    int depth;      /* resolve_out calls on the stack: at most SG_MAX_RESOLVE_DEPTH */
+} sg_flat;
+
+/* Inlines g's groups into f (zero-initialised but for err): see flatten.c. With refs,
+ * each output-socket ref gets a pseudo consumer, a Material Output named "\x01output K"
+ * whose Displacement (vectors, colours) or Thickness (floats) reads it; `resolved[k]`
+ * gets its socket (node NULL, to be named once the graph is final) and `types[k]` the
+ * ref's value type. An input-socket ref is passed through as it is. Returns false on
+ * failure (f->failed, f->err). */
+bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_refs,
+                sg_socket_ref *resolved, sg_socket_type *types);
+
+/* One pass of Cycles' constant folding over every live node with consumers (fold.c).
+ * Returns whether anything changed. */
+bool sg_fold_pass(sg_flat *f, sg_blender_mode mode);
+
+/* Frees every live node's allocations and the arrays (on failure). */
+void sg_flat_free(sg_flat *f);
+
+/* Sets the out-of-memory error (once) and fails f. Returns -1. */
+int sg_flat_oom(sg_flat *f);
+
+static inline bool sg_is_vec_type(sg_socket_type t)
+{
+    return t == SG_SOCKET_VECTOR || t == SG_SOCKET_COLOR;
+}
+
+/* Link edits. Removing a link moves the last one into its slot: loops that remove
+ * while scanning walk the links backwards. */
+static inline void sg_flat_remove_link(sg_flat *f, int l) { f->t.links[l] = f->t.links[--f->t.n_links]; }
+
+/* Relinks every consumer of (node, socket) to (src, src_socket). */
+static inline void sg_flat_redirect_output(sg_flat *f, int node, int socket, int src, int src_socket)
+{
+    for (int l = 0; l < f->t.n_links; l++) {
+        sg_link *k = &f->t.links[l];
+        if (k->from_node == node && k->from_socket == socket) {
+            k->from_node = src;
+            k->from_socket = src_socket;
+        }
+    }
+}
+
+#endif
