@@ -40,14 +40,23 @@
  * Ng. Ng must face the viewer (flip it for back faces, as Cycles does); otherwise the BSDF
  * is zero.
  *
- * Self-consistency: a lobe's pdf is the density of the directions its sampler returns,
- * and every lobe is zero below Ng (samples there are rejected), so eval(), sample() and
- * the pdf agree exactly. Cycles is slightly inconsistent at the edges (a microfacet sample
- * below the bumped normal is kept by its sampler but zero in its eval); that measure is
- * tiny and only exists with bump. Near-mirror lobes (alpha^2 below Cycles' threshold) are
- * deltas: eval() gives 0 for them and sample() returns f_cos and pdf multiplied by
- * SINGULAR_SCALE = 1e6, as Cycles does, so that f_cos / pdf is right and MIS gives the
- * delta full weight.
+ * Self-consistency. Every lobe is zero below Ng, and sample() rejects directions there.
+ * Above Ng, eval()'s pdf for a lobe is the density with which its sampler returns the
+ * direction, and sample() reports for the direction it returns the very bits eval() gives
+ * there (principled_closure_sampled_eval calls the same closures_eval), except in two
+ * places where, as in Cycles, they part:
+ *   - the sampler-only region (with a bump only): a microfacet sampler also returns
+ *     directions above Ng but below its lobe's own hemisphere, where eval() gives 0,
+ *     value and pdf, and sample() the sampled lobe's formula and density
+ *     (microfacet_sampled_value). So eval()'s pdf integrates to the probability that
+ *     sample() returns a direction where eval() is defined, not every direction it
+ *     returns;
+ *   - near-mirror lobes (alpha^2 below Cycles' threshold) are deltas: eval() gives 0 for
+ *     them and sample() adds their f_cos and pdf multiplied by SINGULAR_SCALE = 1e6, as
+ *     Cycles does, so that f_cos / pdf is right and MIS gives the delta full weight.
+ * test_bsdf_principled checks both statements (test_pdf_integral_*: the integral of
+ * eval()'s pdf against the counted success of sample(); test_sample_matches_eval: the
+ * same bits outside the sampler-only region, which it reaches).
  */
 #include "render/bsdf_principled.h"
 
@@ -144,10 +153,12 @@ static float3 valid_specular_normal_4x(float3 Ng, float3 I, float3 N)
     return f3_add(f3_scale(X, safe_sqrtf(1.0f - Nz2)), f3_scale(Ng, safe_sqrtf(Nz2)));
 }
 
-/* Blender 3.x's older solution of the same problem, Cycles' ensure_valid_reflection
- * (shadergraph/kernel_math.h), except that the in-plane tangent X is normalised by a
- * reciprocal with N as fallback (normalize_or) where Cycles divides: the rendered
- * bits depend on it, so it stays until a reference render says otherwise. */
+/* Blender 3.x's older solution of the same problem: kernel_math.h's
+ * ensure_valid_reflection (which 3.4's Bump node uses, shadergraph/kernels/geometry.c),
+ * except that the in-plane tangent X is normalised by a reciprocal with N as fallback
+ * (normalize_or) where Cycles divides: at most a last-bit difference in X, and so in the
+ * corrected normal. Renders depend on those bits, so it stays until a reference render
+ * asks for the change (render/NOTES.md). */
 static float3 valid_reflection_normal_3x(float3 Ng, float3 I, float3 N)
 {
     float t = valid_reflection_threshold(Ng, I);

@@ -14,8 +14,9 @@
  * the surface, as kernel_math.h's float3 (colours are float[3]). N is the shading
  * normal, Ng the geometric normal. f_cos is
  * BSDF * |cos(wi, N)| per RGB channel; pdf is the solid-angle density with
- * which principled_sample() would produce wi. No hidden state: every function
- * is safe to call from any thread.
+ * which principled_sample() would produce wi, except where eval() is 0 but Cycles'
+ * sampler still returns wi (a bumped normal's sampler-only region, bsdf_principled.c).
+ * No hidden state: every function is safe to call from any thread.
  *
  * Alpha is NOT applied here: these functions give the opaque part of the surface, and
  * the caller mixes it with the transparent pass-through, L = alpha L_bsdf +

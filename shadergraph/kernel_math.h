@@ -30,7 +30,10 @@
  * (maxf(NaN, 0) = 0, and clampf(NaN, lo, hi) = lo), unlike fminf/fmaxf, which ignore a
  * quiet NaN in either operand and return a NaN for a signalling one. With finite bounds
  * the two agree on every input except signalling NaNs, which no arithmetic produces
- * and no graph, parameter or scene file can hold (JSON has no NaN).
+ * and no graph, parameter or scene file can hold (JSON has no NaN), and zeros of
+ * opposite signs: maxf(-0, +0) is its second operand, +0, while fmaxf may return either
+ * (GCC's inline expansion gives -0 here, glibc's function +0), so clampf(-0, 0, 1) is +0
+ * where fminf(fmaxf(-0, 0), 1) can be -0. Hence neither replaces the other unproved.
  *
  * Vectors. float3 is the one vector type of the kernels, the BSDF and the renderer's
  * geometry (points, directions, normals, texture coordinates); colours stay float[3]
