@@ -102,8 +102,12 @@ static int load_camera(const loader *ld, const cJSON *root, render_scene *s)
 }
 
 /* d_obj = R^T d, for directions and differentials; identity (a copy) without a
- * transform. */
-static float3 world_to_object_vector(const render_mesh *m, float3 d)
+ * transform. Not inlined: inlined into render_shading_geometry, GCC 12 (-march=native,
+ * AVX-512) merges the no-transform copies into one 256-bit store and returns without
+ * vzeroupper, and the dirty upper state then makes every later non-VEX SSE routine
+ * (glibc's fminf, called per camera sample in render.c) pay an AVX-SSE transition:
+ * 15% of a frame. */
+__attribute__((noinline)) static float3 world_to_object_vector(const render_mesh *m, float3 d)
 {
     if (!m->has_transform)
         return d;
