@@ -40,14 +40,23 @@
  * Ng. Ng must face the viewer (flip it for back faces, as Cycles does); otherwise the BSDF
  * is zero.
  *
- * Self-consistency: a lobe's pdf is the density of the directions its sampler returns,
- * and every lobe is zero below Ng (samples there are rejected), so eval(), sample() and
- * the pdf agree exactly. Cycles is slightly inconsistent at the edges (a microfacet sample
- * below the bumped normal is kept by its sampler but zero in its eval); that measure is
- * tiny and only exists with bump. Near-mirror lobes (alpha^2 below Cycles' threshold) are
- * deltas: eval() gives 0 for them and sample() returns f_cos and pdf multiplied by
- * SINGULAR_SCALE = 1e6, as Cycles does, so that f_cos / pdf is right and MIS gives the
- * delta full weight.
+ * Self-consistency. Every lobe is zero below Ng, and sample() rejects directions there.
+ * Above Ng, eval()'s pdf for a lobe is the density with which its sampler returns the
+ * direction, and sample() reports for the direction it returns the very bits eval() gives
+ * there (principled_closure_sampled_eval calls the same closures_eval), except in two
+ * places where, as in Cycles, they part:
+ *   - the sampler-only region (with a bump only): a microfacet sampler also returns
+ *     directions above Ng but below its lobe's own hemisphere, where eval() gives 0,
+ *     value and pdf, and sample() the sampled lobe's formula and density
+ *     (microfacet_sampled_value). So eval()'s pdf integrates to the probability that
+ *     sample() returns a direction where eval() is defined, not every direction it
+ *     returns;
+ *   - near-mirror lobes (alpha^2 below Cycles' threshold) are deltas: eval() gives 0 for
+ *     them and sample() adds their f_cos and pdf multiplied by SINGULAR_SCALE = 1e6, as
+ *     Cycles does, so that f_cos / pdf is right and MIS gives the delta full weight.
+ * test_bsdf_principled checks both statements (test_pdf_integral_*: the integral of
+ * eval()'s pdf against the counted success of sample(); test_sample_matches_eval: the
+ * same bits outside the sampler-only region, which it reaches).
  */
 #include "render/bsdf_principled.h"
 
@@ -62,14 +71,13 @@
 /* Cycles drops closures whose weight is below this. */
 #define CLOSURE_WEIGHT_CUTOFF 1e-5f
 
-/* Vectors are the kernels' float3 and scalars use Cycles' helpers, as the node kernels
- * do (shadergraph/kernel_math.h: mix, saturatef, sqr, safe_sqrtf, ...). */
+/* Vectors and scalars use Cycles' helpers as the node kernels do (shadergraph/
+ * kernel_math.h: float3 and f3_*, mix, saturatef, sqr, safe_sqrtf, ...). */
 
-static float3 v3_load(const float a[3]) { return make_float3(a[0], a[1], a[2]); }
-static bool v3_equal(float3 a, float3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
-/* a times the reciprocal of its length, or fallback if the length is not positive (so
- * also for a NaN length, where Cycles' safe_normalize_fallback gives NaNs). */
-static float3 v3_normalize_or(float3 a, float3 fallback)
+/* Cycles' safe_normalize_fallback, rounding alike (a times the reciprocal of its
+ * length), but the fallback also for a NaN length, where Cycles tests != 0 and gives
+ * NaNs. */
+static float3 normalize_or(float3 a, float3 fallback)
 {
     float l = sqrtf(f3_dot(a, a));
     return l > 0.0f ? f3_scale(a, 1.0f / l) : fallback;
@@ -128,14 +136,14 @@ static float fresnel_interpolation(float cos_hi, float eta)
  * quadratic in N'.z^2 with one root of the right sign, chosen by the sign of I.x. */
 static float3 valid_specular_normal_4x(float3 Ng, float3 I, float3 N)
 {
-    if (v3_equal(N, Ng))
+    if (f3_isequal(N, Ng))
         return N;
     float3 R = f3_sub(f3_scale(N, 2.0f * f3_dot(N, I)), I);
     float Iz = f3_dot(I, Ng);
     float t = fminf(0.9f * Iz, 0.01f);
     if (f3_dot(Ng, R) >= t)
         return N;
-    float3 X = v3_normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
+    float3 X = normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
     float Ix = f3_dot(I, X);
     float a = Ix * Ix + Iz * Iz;
     float b = 2.0f * (a + Iz * t);
@@ -145,16 +153,18 @@ static float3 valid_specular_normal_4x(float3 Ng, float3 I, float3 N)
     return f3_add(f3_scale(X, safe_sqrtf(1.0f - Nz2)), f3_scale(Ng, safe_sqrtf(Nz2)));
 }
 
-/* Blender 3.x's older solution of the same problem, Cycles' ensure_valid_reflection
- * (shadergraph/kernel_math.h), except that the in-plane tangent X is normalised by a
- * reciprocal with N as fallback (v3_normalize_or) where Cycles divides: the rendered
- * bits depend on it, so it stays until a reference render says otherwise. */
+/* Blender 3.x's older solution of the same problem: kernel_math.h's
+ * ensure_valid_reflection (which 3.4's Bump node uses, shadergraph/kernels/geometry.c),
+ * except that the in-plane tangent X is normalised by a reciprocal with N as fallback
+ * (normalize_or) where Cycles divides: at most a last-bit difference in X, and so in the
+ * corrected normal. Renders depend on those bits, so it stays until a reference render
+ * asks for the change (render/NOTES.md). */
 static float3 valid_reflection_normal_3x(float3 Ng, float3 I, float3 N)
 {
     float t = valid_reflection_threshold(Ng, I);
     if (reflection_is_valid(Ng, I, N, t))
         return N;
-    float3 X = v3_normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
+    float3 X = normalize_or(f3_sub(N, f3_scale(Ng, f3_dot(N, Ng))), N);
     return valid_reflection_in_plane(Ng, I, X, t);
 }
 
@@ -195,7 +205,7 @@ static float ggx_D(float alpha2, float cos_nh)
  * normal is +z and v (unit, v.z > 0) is the view. */
 static float3 ggx_sample_visible_normal(float3 v, float alpha, float u1, float u2)
 {
-    float3 vh = v3_normalize_or(make_float3(alpha * v.x, alpha * v.y, v.z), make_float3(0, 0, 1));
+    float3 vh = normalize_or(make_float3(alpha * v.x, alpha * v.y, v.z), make_float3(0, 0, 1));
     float lensq = vh.x * vh.x + vh.y * vh.y;
     float3 t1 = lensq > 1e-7f ? f3_scale(make_float3(-vh.y, vh.x, 0.0f), 1.0f / sqrtf(lensq))
                             : make_float3(1.0f, 0.0f, 0.0f);
@@ -206,7 +216,7 @@ static float3 ggx_sample_visible_normal(float3 v, float alpha, float u1, float u
     py = (1.0f - s) * safe_sqrtf(1.0f - px * px) + s * py;
     float3 h = f3_add(f3_add(f3_scale(t1, px), f3_scale(t2, py)),
                     f3_scale(vh, safe_sqrtf(1.0f - px * px - py * py)));
-    return v3_normalize_or(make_float3(alpha * h.x, alpha * h.y, fmaxf(0.0f, h.z)), make_float3(0, 0, 1));
+    return normalize_or(make_float3(alpha * h.x, alpha * h.y, fmaxf(0.0f, h.z)), make_float3(0, 0, 1));
 }
 
 /* ---- Closures ----------------------------------------------------------------------- */
@@ -246,7 +256,7 @@ static void lobe_fresnel(const lobe *l, float cos_hi, float F[3])
 static void microfacet_formula(const closures *cl, const lobe *l, float3 L, float cos_nv,
                                float cos_nl, float f[3], float *pdf)
 {
-    float3 H = v3_normalize_or(f3_add(cl->V, L), l->N);
+    float3 H = normalize_or(f3_add(cl->V, L), l->N);
     float alpha2 = l->alpha * l->alpha;
     float D = ggx_D(alpha2, f3_dot(l->N, H));
     float common = D * 0.25f / cos_nv;
@@ -319,7 +329,7 @@ static float microfacet_sample_pdf(const closures *cl, const lobe *l, float3 L)
     float cos_nv = f3_dot(l->N, cl->V);
     if (l->singular || cos_nv <= 0.0f)
         return 0.0f;
-    float3 H = v3_normalize_or(f3_add(cl->V, L), l->N);
+    float3 H = normalize_or(f3_add(cl->V, L), l->N);
     if (f3_dot(H, cl->V) <= 0.0f)
         return 0.0f;
     float alpha2 = l->alpha * l->alpha;
@@ -396,7 +406,7 @@ static void diffuse_eval(const closures *cl, const lobe *l, float3 L, float *f, 
         return;
     }
     diffuse_eval_uncut(cl, l, L, f, pdf);
-    if (*pdf > 0.0f && !v3_equal(l->N, cl->Ng))
+    if (*pdf > 0.0f && !f3_isequal(l->N, cl->Ng))
         *f *= bump_shadowing(cl->Ng, l->N, L);
 }
 
@@ -664,35 +674,33 @@ void principled_inputs_default(principled_inputs *in)
     in->specular_ior_level = 0.5f;
     in->specular_tint[0] = in->specular_tint[1] = in->specular_tint[2] = 1.0f;
     in->alpha = 1.0f;
-    in->N[0] = 0.0f;
-    in->N[1] = 0.0f;
-    in->N[2] = 1.0f;
+    in->N = make_float3(0.0f, 0.0f, 1.0f);
 }
 
-int principled_prepare(const principled_inputs *in, int blender, const float wo[3],
-                       const float Ng[3], closures *cl)
+int principled_prepare(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                       closures *cl)
 {
     *cl = (closures){0};
     cl->blender = blender == 3 ? 3 : 4;
-    cl->V = v3_load(wo);
-    cl->Ng = v3_load(Ng);
+    cl->V = wo;
+    cl->Ng = Ng;
     if (f3_dot(cl->V, cl->Ng) <= 0.0f)
         return 0;
-    float3 N = v3_normalize_or(v3_load(in->N), cl->Ng);
+    float3 N = normalize_or(in->N, cl->Ng);
     if (cl->blender == 3)
         setup_3x(cl, in, N);
     else
         setup_4x(cl, in, N);
     cl->roughness = cl->blender == 3 ? in->roughness : saturatef(in->roughness);
     for (int i = 0; i < N_LOBES; i++)
-        if (cl->lobe[i].active && !v3_equal(cl->lobe[i].N, cl->Ng))
+        if (cl->lobe[i].active && !f3_isequal(cl->lobe[i].N, cl->Ng))
             cl->bumped = 1;
     return 1;
 }
 
-void principled_closure_eval(const closures *cl, const float wi[3], float f_cos[3], float *pdf)
+void principled_closure_eval(const closures *cl, float3 wi, float f_cos[3], float *pdf)
 {
-    closures_eval(cl, v3_load(wi), f_cos, pdf);
+    closures_eval(cl, wi, f_cos, pdf);
 }
 
 void principled_closure_sample_direction(const closures *cl, const float u[3],
@@ -757,7 +765,7 @@ void principled_closure_sampled_eval(const closures *cl, const principled_sample
     }
 }
 
-int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
+int principled_closure_sample(const closures *cl, const float u[3], float3 *wi,
                               float f_cos[3], float *pdf)
 {
     principled_sampled s;
@@ -765,27 +773,24 @@ int principled_closure_sample(const closures *cl, const float u[3], float wi[3],
     if (!s.usable) {
         f_cos[0] = f_cos[1] = f_cos[2] = 0.0f;
         *pdf = 0.0f;
-        wi[0] = wi[1] = wi[2] = 0.0f;
+        *wi = make_float3(0.0f, 0.0f, 0.0f);
         return 0;
     }
-    wi[0] = s.raw.x;
-    wi[1] = s.raw.y;
-    wi[2] = s.raw.z;
+    *wi = s.raw;
     principled_closure_sampled_eval(cl, &s, f_cos, pdf);
     return *pdf > 0.0f;
 }
 
-void principled_eval(const principled_inputs *in, int blender, const float wo[3],
-                     const float wi[3], const float Ng[3], float f_cos[3], float *pdf)
+void principled_eval(const principled_inputs *in, int blender, float3 wo, float3 wi, float3 Ng,
+                     float f_cos[3], float *pdf)
 {
     closures cl;
     principled_prepare(in, blender, wo, Ng, &cl);
     principled_closure_eval(&cl, wi, f_cos, pdf);
 }
 
-int principled_sample(const principled_inputs *in, int blender, const float wo[3],
-                      const float Ng[3], const float u[3], float wi[3], float f_cos[3],
-                      float *pdf)
+int principled_sample(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                      const float u[3], float3 *wi, float f_cos[3], float *pdf)
 {
     closures cl;
     principled_prepare(in, blender, wo, Ng, &cl);
@@ -915,7 +920,7 @@ static void lobe_albedo_uncut(const closures *cl, int i, float alb[3])
         float d = 1.0f;
         if (cl->blender == 3) {
             d = diffuse_albedo_3x(cl->diffuse_roughness, mu);
-        } else if (!v3_equal(l->N, cl->Ng)) {
+        } else if (!f3_isequal(l->N, cl->Ng)) {
             /* Lambert under the bump shadowing term depends on the tilt only. */
             float tilt = acosf(fminf(fmaxf(f3_dot(l->N, cl->Ng), -1.0f), 1.0f));
             d = microfacet_table_1d(microfacet_bump_lambert, tilt / (0.5f * PI_F), 65);
@@ -944,7 +949,7 @@ void principled_closure_albedo(const closures *cl, float albedo[3])
         if (!l->active || done[i])
             continue;
         float alb[3], alb2[3];
-        if (!v3_equal(l->N, cl->Ng) && !(i == LOBE_DIFFUSE && cl->blender == 4)) {
+        if (!f3_isequal(l->N, cl->Ng) && !(i == LOBE_DIFFUSE && cl->blender == 4)) {
             /* 4.x's specular and metal lobes share normal and roughness: one pass. */
             int also = -1;
             if (i == LOBE_SPECULAR && cl->lobe[LOBE_METAL].active) {
@@ -963,8 +968,8 @@ void principled_closure_albedo(const closures *cl, float albedo[3])
     }
 }
 
-void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
-                       const float Ng[3], float albedo[3])
+void principled_albedo(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                       float albedo[3])
 {
     closures cl;
     principled_prepare(in, blender, wo, Ng, &cl);

@@ -11,10 +11,12 @@
  * bsdf_principled.c).
  *
  * Conventions: all directions in world space, unit length, pointing away from
- * the surface. N is the shading normal, Ng the geometric normal. f_cos is
+ * the surface, as kernel_math.h's float3 (colours are float[3]). N is the shading
+ * normal, Ng the geometric normal. f_cos is
  * BSDF * |cos(wi, N)| per RGB channel; pdf is the solid-angle density with
- * which principled_sample() would produce wi. No hidden state: every function
- * is safe to call from any thread.
+ * which principled_sample() would produce wi, except where eval() is 0 but Cycles'
+ * sampler still returns wi (a bumped normal's sampler-only region, bsdf_principled.c).
+ * No hidden state: every function is safe to call from any thread.
  *
  * Alpha is NOT applied here: these functions give the opaque part of the surface, and
  * the caller mixes it with the transparent pass-through, L = alpha L_bsdf +
@@ -40,19 +42,18 @@ typedef struct principled_inputs {
     float specular_ior_level;
     float specular_tint[3];
     float alpha;
-    float N[3];
+    float3 N;
 } principled_inputs;
 
 /* Blender 4.3's defaults for everything but N, which the caller sets. */
 void principled_inputs_default(principled_inputs *in);
 
-void principled_eval(const principled_inputs *in, int blender /* 3 or 4 */, const float wo[3],
-                     const float wi[3], const float Ng[3], float f_cos[3], float *pdf);
+void principled_eval(const principled_inputs *in, int blender /* 3 or 4 */, float3 wo, float3 wi,
+                     float3 Ng, float f_cos[3], float *pdf);
 
 /* u in [0,1)^3. Returns 0 if no direction was produced (then f_cos and pdf are 0). */
-int principled_sample(const principled_inputs *in, int blender, const float wo[3],
-                      const float Ng[3], const float u[3], float wi[3], float f_cos[3],
-                      float *pdf);
+int principled_sample(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                      const float u[3], float3 *wi, float f_cos[3], float *pdf);
 
 /* Directional albedo: the integral of f_cos over all wi for this wo. Where the shading
  * normal is Ng (no bump) it comes from tables (~1 us, within ~0.1% of the integral);
@@ -60,8 +61,8 @@ int principled_sample(const principled_inputs *in, int blender, const float wo[3
  * quadrature (~30 us of CPU, within 0.5%, 0.03% on average). A renderer with many bumped
  * shading points uses principled_albedo_uncut() + principled_albedo_cut_estimate()
  * instead (below). */
-void principled_albedo(const principled_inputs *in, int blender, const float wo[3],
-                       const float Ng[3], float albedo[3]);
+void principled_albedo(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                       float albedo[3]);
 
 /* ---- Prepared closures ------------------------------------------------------------
  * The functions above set the BSDF up (lobes, weights, energy compensation, sampling
@@ -69,13 +70,10 @@ void principled_albedo(const principled_inputs *in, int blender, const float wo[
  * one shading point several times prepares it once and uses the principled_closure_*
  * functions, which give the same results bit for bit. */
 
-/* The kernels' float3 (shadergraph/kernel_math.h). */
-typedef float3 principled_vec3;
-
 /* One closure of the BSDF (Cycles' term): diffuse, dielectric specular or metal. */
 typedef struct principled_lobe {
     int active;
-    principled_vec3 N;
+    float3 N;
     float weight[3];    /* closure weight per channel, incl. 4.x energy compensation */
     float prob;         /* selection probability (sum 1 over active lobes) */
     float alpha;        /* microfacet lobes: roughness^2 */
@@ -90,7 +88,7 @@ enum { PRINCIPLED_DIFFUSE, PRINCIPLED_SPECULAR, PRINCIPLED_METAL, PRINCIPLED_LOB
 
 typedef struct principled_closure {
     int blender;                /* 3 or 4 */
-    principled_vec3 V, Ng;
+    float3 V, Ng;
     float roughness;            /* as the albedo tables take it */
     float diffuse_roughness;    /* 3.x retro-reflection */
     int bumped;                 /* some active lobe's normal is not Ng */
@@ -99,11 +97,10 @@ typedef struct principled_closure {
 
 /* Returns 0 if the BSDF is zero for this view (wo below Ng); then the closure has no
  * active lobe and the functions below give zeros. */
-int principled_prepare(const principled_inputs *in, int blender, const float wo[3],
-                       const float Ng[3], principled_closure *c);
-void principled_closure_eval(const principled_closure *c, const float wi[3], float f_cos[3],
-                             float *pdf);
-int principled_closure_sample(const principled_closure *c, const float u[3], float wi[3],
+int principled_prepare(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+                       principled_closure *c);
+void principled_closure_eval(const principled_closure *c, float3 wi, float f_cos[3], float *pdf);
+int principled_closure_sample(const principled_closure *c, const float u[3], float3 *wi,
                               float f_cos[3], float *pdf);
 
 /* principled_closure_sample() in two steps, for an integrator that needs the value only
@@ -117,7 +114,7 @@ typedef struct principled_sampled {
     int lobe;   /* the lobe u[2] picked, -1 if none is active */
     int raw_ok; /* the lobe's sampler gave a direction */
     int usable;
-    principled_vec3 raw;
+    float3 raw;
 } principled_sampled;
 void principled_closure_sample_direction(const principled_closure *c, const float u[3],
                                          principled_sampled *s);

@@ -75,7 +75,7 @@ double pixel_filter_cdf(const pixel_filter *f, double x)
     return bh_integral(2.0 * M_PI * (x / full + 0.5)) / bh_integral(2.0 * M_PI);
 }
 
-void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], float D[3],
+void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float3 *P, float3 *D,
                       float *dP)
 {
     /* Blender's ortho_scale spans the larger side; pixels are square. */
@@ -83,21 +83,19 @@ void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], flo
     float pixel = c->ortho_scale / (float)side;
     float sx = (rx - 0.5f * (float)c->width) * pixel;
     float sy = (0.5f * (float)c->height - ry) * pixel; /* row 0 at the top */
-    for (int k = 0; k < 3; k++) {
-        P[k] = c->position[k] + sx * c->right[k] + sy * c->up[k];
-        D[k] = c->forward[k];
-    }
+    *P = f3_add(f3_add(c->position, f3_scale(c->right, sx)), f3_scale(c->up, sy));
+    *D = c->forward;
     /* Cycles' compact differential: the mean of the x and y pixel extents. */
     *dP = pixel;
 }
 
-void render_make_orthonormals(const float N[3], float a[3], float b[3])
+/* Cycles' make_orthonormals, rounding alike; a zero N gives zero tangents where Cycles'
+ * normalize gives NaNs (f3_normalize_len). */
+void render_make_orthonormals(float3 N, float3 *a, float3 *b)
 {
-    if (N[0] != N[1] || N[0] != N[2]) {
-        a[0] = N[2] - N[1], a[1] = N[0] - N[2], a[2] = N[1] - N[0];
-    } else {
-        a[0] = N[2] - N[1], a[1] = N[0] + N[2], a[2] = -N[1] - N[0];
-    }
-    v3_normalize(a);
-    v3_cross(N, a, b);
+    float3 t = N.x != N.y || N.x != N.z ? make_float3(N.z - N.y, N.x - N.z, N.y - N.x)
+                                        : make_float3(N.z - N.y, N.x + N.z, -N.y - N.x);
+    float len;
+    *a = f3_normalize_len(t, &len);
+    *b = f3_cross(N, *a);
 }

@@ -34,21 +34,19 @@ static float power_heuristic(float a, float b)
     return a2 / (a2 + b2);
 }
 
-int render_occluded(const render_scene *s, const float P[3], const float Ng[3],
-                    const float wi[3], float tmax)
+int render_occluded(const render_scene *s, float3 P, float3 Ng, float3 wi, float tmax)
 {
     /* Offset the origin off the surface, to the side wi leaves on; scaled to the
      * position's magnitude as float precision is relative. */
-    float mag = fmaxf(fmaxf(fabsf(P[0]), fabsf(P[1])), fmaxf(fabsf(P[2]), 1.0f));
+    float mag = fmaxf(fmaxf(fabsf(P.x), fabsf(P.y)), fmaxf(fabsf(P.z), 1.0f));
     float eps = 1e-5f * mag;
-    float side = v3_dot(wi, Ng) >= 0.0f ? eps : -eps;
+    float side = f3_dot(wi, Ng) >= 0.0f ? eps : -eps;
+    float3 org = f3_add(P, f3_scale(Ng, side));
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay ray = {0};
-    ray.org_x = P[0] + side * Ng[0];
-    ray.org_y = P[1] + side * Ng[1];
-    ray.org_z = P[2] + side * Ng[2];
-    ray.dir_x = wi[0], ray.dir_y = wi[1], ray.dir_z = wi[2];
+    ray.org_x = org.x, ray.org_y = org.y, ray.org_z = org.z;
+    ray.dir_x = wi.x, ray.dir_y = wi.y, ray.dir_z = wi.z;
     ray.tnear = 0.0f;
     ray.tfar = tmax;
     ray.mask = 0xffffffffu;
@@ -117,7 +115,7 @@ static void bsdf_estimate(const shade_setup *s, const shading_geometry *g,
 {
     if (!smp->usable)
         return;
-    const float wi[3] = {smp->raw.x, smp->raw.y, smp->raw.z};
+    const float3 wi = smp->raw;
     float t = INFINITY, pdf_light = 0.0f;
     int hits_light = s->light && point_light_intersect(s->light, g->P, wi, &t, &pdf_light);
     if (!with_world && !hits_light)

@@ -14,18 +14,16 @@
  */
 #include "render/render_internal.h"
 
-static void disk_frame(const point_light *l, const float P[3], float n[3], float *dist)
+/* The unit direction n from the light's centre to P, and their distance. */
+static float3 disk_frame(const point_light *l, float3 P, float *dist)
 {
-    for (int k = 0; k < 3; k++)
-        n[k] = P[k] - l->position[k];
-    *dist = v3_normalize(n);
+    return f3_normalize_len(f3_sub(P, l->position), dist);
 }
 
-int point_light_sample(const point_light *l, const float P[3], float u, float v,
-                       light_sample *out)
+int point_light_sample(const point_light *l, float3 P, float u, float v, light_sample *out)
 {
-    float n[3], d;
-    disk_frame(l, P, n, &d);
+    float d;
+    float3 n = disk_frame(l, P, &d);
     if (d <= l->radius || l->radius <= 0.0f)
         return 0; /* inside the light: not a case of this scene */
     if (l->sphere) {
@@ -34,10 +32,10 @@ int point_light_sample(const point_light *l, const float P[3], float u, float v,
         float cos_t = 1.0f - u * (1.0f - cos_max);
         float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
         float phi = 2.0f * (float)M_PI * v;
-        float a[3], b[3], axis[3] = {-n[0], -n[1], -n[2]};
-        render_make_orthonormals(axis, a, b);
-        for (int k = 0; k < 3; k++)
-            out->wi[k] = sin_t * cosf(phi) * a[k] + sin_t * sinf(phi) * b[k] + cos_t * axis[k];
+        float3 a, b, axis = f3_neg(n);
+        render_make_orthonormals(axis, &a, &b);
+        out->wi = f3_add(f3_add(f3_scale(a, sin_t * cosf(phi)), f3_scale(b, sin_t * sinf(phi))),
+                         f3_scale(axis, cos_t));
         /* Distance to the sphere's near side along wi (law of cosines). */
         out->t = d * cos_t - sqrtf(fmaxf(0.0f, l->radius * l->radius - d * d * sin_t * sin_t));
         out->pdf = 1.0f / (2.0f * (float)M_PI * (1.0f - cos_max));
@@ -52,31 +50,26 @@ int point_light_sample(const point_light *l, const float P[3], float u, float v,
     } else {
         r = sy, phi = (float)M_PI / 2.0f - (float)M_PI / 4.0f * (sx / sy);
     }
-    float a[3], b[3];
-    render_make_orthonormals(n, a, b);
-    float q[3];
-    for (int k = 0; k < 3; k++)
-        q[k] = l->position[k] + l->radius * r * (cosf(phi) * a[k] + sinf(phi) * b[k]) - P[k];
-    out->t = v3_normalize(q);
-    for (int k = 0; k < 3; k++)
-        out->wi[k] = q[k];
-    float cos_l = -v3_dot(n, out->wi);
+    float3 a, b;
+    render_make_orthonormals(n, &a, &b);
+    float3 offset = f3_scale(f3_add(f3_scale(a, cosf(phi)), f3_scale(b, sinf(phi))), l->radius * r);
+    out->wi = f3_normalize_len(f3_sub(f3_add(l->position, offset), P), &out->t);
+    float cos_l = -f3_dot(n, out->wi);
     if (cos_l <= 0.0f)
         return 0;
     out->pdf = out->t * out->t / (cos_l * (float)M_PI * l->radius * l->radius);
     return 1;
 }
 
-int point_light_intersect(const point_light *l, const float P[3], const float wi[3], float *t,
-                          float *pdf)
+int point_light_intersect(const point_light *l, float3 P, float3 wi, float *t, float *pdf)
 {
-    float n[3], d;
-    disk_frame(l, P, n, &d);
+    float d;
+    float3 n = disk_frame(l, P, &d);
     if (d <= l->radius || l->radius <= 0.0f)
         return 0;
     if (l->sphere) {
-        float oc[3] = {P[0] - l->position[0], P[1] - l->position[1], P[2] - l->position[2]};
-        float bq = v3_dot(oc, wi), c = v3_dot(oc, oc) - l->radius * l->radius;
+        float3 oc = f3_sub(P, l->position);
+        float bq = f3_dot(oc, wi), c = f3_dot(oc, oc) - l->radius * l->radius;
         float disc = bq * bq - c;
         if (disc < 0.0f)
             return 0;
@@ -91,13 +84,12 @@ int point_light_intersect(const point_light *l, const float P[3], const float wi
     }
     /* The disk through the centre with normal n (towards P): P + t wi meets its plane at
      * t = d / cos, cos = -n.wi; inside when within r of the centre. */
-    float cos_l = -v3_dot(n, wi);
+    float cos_l = -f3_dot(n, wi);
     if (cos_l <= 0.0f)
         return 0;
-    float th = d / cos_l, q[3];
-    for (int k = 0; k < 3; k++)
-        q[k] = P[k] + th * wi[k] - l->position[k];
-    if (v3_dot(q, q) >= l->radius * l->radius)
+    float th = d / cos_l;
+    float3 q = f3_sub(f3_add(P, f3_scale(wi, th)), l->position);
+    if (f3_dot(q, q) >= l->radius * l->radius)
         return 0;
     *t = th;
     *pdf = th * th / (cos_l * (float)M_PI * l->radius * l->radius);

@@ -194,13 +194,15 @@ static void batch_geometry(batch *b, sg_geometry_batch *gb)
         field[k] = f + (size_t)k * 3 * (size_t)n;
     for (int i = 0; i < n; i++) {
         const shading_geometry *g = &b->geo[i];
-        const float *src[FIELDS] = {g->P, g->dPdx, g->dPdy, g->N, g->Ng, g->I, g->generated,
+        const float3 src[FIELDS] = {g->P, g->dPdx, g->dPdy, g->N, g->Ng, g->I, g->generated,
                                     g->dgenerated_dx, g->dgenerated_dy, g->uv, g->duv_dx,
                                     g->duv_dy, g->object, g->dobject_dx, g->dobject_dy,
                                     g->object_normal};
-        for (int k = 0; k < FIELDS; k++)
-            for (int c = 0; c < 3; c++)
-                field[k][c * n + i] = src[k][c];
+        for (int k = 0; k < FIELDS; k++) {
+            field[k][i] = src[k].x;
+            field[k][n + i] = src[k].y;
+            field[k][2 * n + i] = src[k].z;
+        }
     }
     gb->n = n;
     gb->P = field[P], gb->dPdx = field[DPX], gb->dPdy = field[DPY];
@@ -271,16 +273,18 @@ static void batch_flush(worker *w, tile_film *tf)
         for (int c = 0; c < 3; c++) {
             in.base_color[c] = b->out_color[c * n + i];
             in.specular_tint[c] = b->out_tint[c * n + i];
-            in.N[c] = b->out_normal[c * n + i];
         }
+        in.N = make_float3(b->out_normal[i], b->out_normal[n + i], b->out_normal[2 * n + i]);
         in.metallic = b->out_metallic[i];
         in.roughness = b->out_roughness[i];
         in.ior = b->out_ior[i];
         in.alpha = b->out_alpha[i];
         in.specular_ior_level = b->out_spec[i];
         /* Cycles normalises the Normal input of a closure (safe_normalize). */
-        if (v3_normalize(in.N) == 0.0f)
-            memcpy(in.N, b->geo[i].N, sizeof in.N);
+        float len;
+        in.N = f3_normalize_len(in.N, &len);
+        if (len == 0.0f)
+            in.N = b->geo[i].N;
         float L[3];
         shade_point(&job->setup, &b->geo[i], &in, b->unit[i], b->sample[i], b->first[i],
                     b->strata[i], L, &w->counters);
@@ -290,8 +294,7 @@ static void batch_flush(worker *w, tile_film *tf)
         float alpha = fminf(fmaxf(in.alpha, 0.0f), 1.0f);
         if (alpha < 1.0f) {
             const shading_geometry *g = &b->geo[i];
-            float D[3] = {-g->I[0], -g->I[1], -g->I[2]};
-            if (render_occluded(job->scene, g->P, g->Ng, D, INFINITY))
+            if (render_occluded(job->scene, g->P, g->Ng, f3_neg(g->I), INFINITY))
                 w->counters.indirect_hits++;
             for (int c = 0; c < 3; c++)
                 L[c] = alpha * L[c] + (1.0f - alpha) * job->scene->world[c];
@@ -372,15 +375,16 @@ static void render_tile(worker *w, int tile)
             for (int s = first; s < first + count; s++) {
                 float rx, ry;
                 sample_position(job, unit, s, first, count, &rx, &ry);
-                float P[3], D[3], dP;
-                ortho_camera_ray(cam, rx, ry, P, D, &dP);
+                float3 P, D;
+                float dP;
+                ortho_camera_ray(cam, rx, ry, &P, &D, &dP);
                 w->camera_rays++;
                 struct RTCIntersectContext ctx;
                 rtcInitIntersectContext(&ctx);
                 struct RTCRayHit rh;
                 memset(&rh, 0, sizeof rh);
-                rh.ray.org_x = P[0], rh.ray.org_y = P[1], rh.ray.org_z = P[2];
-                rh.ray.dir_x = D[0], rh.ray.dir_y = D[1], rh.ray.dir_z = D[2];
+                rh.ray.org_x = P.x, rh.ray.org_y = P.y, rh.ray.org_z = P.z;
+                rh.ray.dir_x = D.x, rh.ray.dir_y = D.y, rh.ray.dir_z = D.z;
                 rh.ray.tnear = 0.0f;
                 rh.ray.tfar = INFINITY;
                 rh.ray.mask = 0xffffffffu;

@@ -15,29 +15,14 @@
 #include "render/bsdf_principled.h"
 #include "render/render.h"
 
-/* ---- small vector helpers ------------------------------------------------------- */
-
-static inline float v3_dot(const float a[3], const float b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static inline void v3_cross(const float a[3], const float b[3], float out[3])
-{
-    float x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
-          z = a[0] * b[1] - a[1] * b[0];
-    out[0] = x, out[1] = y, out[2] = z;
-}
-static inline float v3_normalize(float v[3])
-{
-    float len = sqrtf(v3_dot(v, v));
-    if (len > 0.0f)
-        v[0] /= len, v[1] /= len, v[2] /= len;
-    return len;
-}
+/* ---- vectors ----------------------------------------------------------------------
+ * Points, directions and normals are float3 with kernel_math.h's operations (through
+ * bsdf_principled.h), each written to round as the per-component expression it
+ * replaced; colours and radiances are float[3]; Embree's rays and buffers stay floats. */
 
 /* Cycles' make_orthonormals: the tangent pair around N that Cycles uses to rebuild a
  * compact differential (and therefore where Bump takes its offsets). */
-void render_make_orthonormals(const float N[3], float a[3], float b[3]);
+void render_make_orthonormals(float3 N, float3 *a, float3 *b);
 
 /* ---- sampler ----------------------------------------------------------------------- */
 
@@ -79,8 +64,8 @@ float pixel_filter_density(const pixel_filter *f, float x);
 double pixel_filter_cdf(const pixel_filter *f, double x);
 
 typedef struct ortho_camera {
-    float position[3];
-    float forward[3], right[3], up[3]; /* unit, right-handed: right x up = -forward */
+    float3 position;
+    float3 forward, right, up; /* unit, right-handed: right x up = -forward */
     float ortho_scale;                 /* width of the view of the larger image side, m */
     int width, height;
 } ortho_camera;
@@ -88,7 +73,7 @@ typedef struct ortho_camera {
 /* Ray for raster position (rx, ry) in pixels, (0, 0) the top-left corner of the image,
  * so (px + 0.5, py + 0.5) is pixel (px, py)'s centre. Orthographic: D is `forward` for
  * every ray. Also the compact differential (Cycles: mean pixel extent in metres). */
-void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], float D[3],
+void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float3 *P, float3 *D,
                       float *dP);
 
 /* ---- lights ------------------------------------------------------------------------ */
@@ -100,7 +85,7 @@ void ortho_camera_ray(const ortho_camera *c, float rx, float ry, float P[3], flo
  * model of 3.x) Cycles represents the sphere as a disk of radius r centred on the light,
  * facing the shading point; without it (4.x) as a true sphere. */
 typedef struct point_light {
-    float position[3];
+    float3 position;
     float radius;
     float radiance[3];
     int soft_falloff; /* as in the scene file (Blender 4.x's option) */
@@ -109,19 +94,17 @@ typedef struct point_light {
 } point_light;
 
 typedef struct light_sample {
-    float wi[3];   /* unit direction from the shading point to the light */
+    float3 wi;     /* unit direction from the shading point to the light */
     float t;       /* distance to the sampled point */
     float pdf;     /* solid angle density of wi */
 } light_sample;
 
 /* Samples a direction towards the light from P, uniform over its area as seen from P
  * (solid angle for the sphere). Returns 0 when P cannot see the light at all. */
-int point_light_sample(const point_light *l, const float P[3], float u, float v,
-                       light_sample *out);
+int point_light_sample(const point_light *l, float3 P, float u, float v, light_sample *out);
 /* Whether the ray (P, wi) hits the light; if so its distance and the pdf with which
  * point_light_sample would have produced wi. */
-int point_light_intersect(const point_light *l, const float P[3], const float wi[3], float *t,
-                          float *pdf);
+int point_light_intersect(const point_light *l, float3 P, float3 wi, float *t, float *pdf);
 
 /* ---- scene ----------------------------------------------------------------------- */
 
@@ -159,17 +142,17 @@ struct render_scene {
 
 /* Geometry at a camera hit, as the evaluator wants it (sg_geometry_batch fields). */
 typedef struct shading_geometry {
-    float P[3], dPdx[3], dPdy[3], N[3], Ng[3], I[3];
-    float generated[3], dgenerated_dx[3], dgenerated_dy[3];
-    float uv[3], duv_dx[3], duv_dy[3];
-    float object[3], dobject_dx[3], dobject_dy[3], object_normal[3]; /* object space */
+    float3 P, dPdx, dPdy, N, Ng, I;
+    float3 generated, dgenerated_dx, dgenerated_dy;
+    float3 uv, duv_dx, duv_dy;
+    float3 object, dobject_dx, dobject_dy, object_normal; /* object space */
 } shading_geometry;
 
 /* Fills g for a hit on mesh `mesh`, triangle `prim` at barycentrics (bu, bv) (Embree's:
  * P = (1-bu-bv) v0 + bu v1 + bv v2), for a ray of direction D and compact differential
  * dP. Differentials are rebuilt as Cycles does: dP along make_orthonormals(Ng). */
 void render_shading_geometry(const render_scene *s, int mesh, unsigned prim, float bu, float bv,
-                             const float D[3], float dP, shading_geometry *g);
+                             float3 D, float dP, shading_geometry *g);
 
 /* ---- integrator ------------------------------------------------------------------ */
 
@@ -196,7 +179,6 @@ void shade_point(const shade_setup *s, const shading_geometry *g, const principl
 
 /* Whether the segment from P (offset along Ng) in direction wi hits scene geometry
  * closer than tmax. */
-int render_occluded(const render_scene *s, const float P[3], const float Ng[3],
-                    const float wi[3], float tmax);
+int render_occluded(const render_scene *s, float3 P, float3 Ng, float3 wi, float tmax);
 
 #endif

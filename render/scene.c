@@ -79,46 +79,49 @@ static int load_camera(const loader *ld, const cJSON *root, render_scene *s)
     if (expect_string(ld, c, "type", "camera", "ORTHO") < 0)
         return -1;
     ortho_camera *cam = &s->camera;
-    if (get_floats(ld, c, "location", "camera", cam->position, 3) < 0 ||
-        get_floats(ld, c, "forward", "camera", cam->forward, 3) < 0 ||
-        get_floats(ld, c, "up", "camera", cam->up, 3) < 0 ||
+    float position[3], forward[3], up[3], len;
+    if (get_floats(ld, c, "location", "camera", position, 3) < 0 ||
+        get_floats(ld, c, "forward", "camera", forward, 3) < 0 ||
+        get_floats(ld, c, "up", "camera", up, 3) < 0 ||
         get_float(ld, c, "ortho_scale", "camera", 0.0f, &cam->ortho_scale) < 0)
         return -1;
     if (cam->ortho_scale <= 0.0f)
         return fail(ld, "camera.ortho_scale: must be > 0");
-    if (v3_normalize(cam->forward) == 0.0f)
+    cam->position = f3_from_floats(position);
+    cam->forward = f3_normalize_len(f3_from_floats(forward), &len);
+    if (len == 0.0f)
         return fail(ld, "camera.forward: zero vector");
     /* Make up orthogonal to forward; right = forward x up. */
-    float fu = v3_dot(cam->forward, cam->up);
-    for (int k = 0; k < 3; k++)
-        cam->up[k] -= fu * cam->forward[k];
-    if (v3_normalize(cam->up) < 1e-6f)
+    cam->up = f3_from_floats(up);
+    cam->up = f3_sub(cam->up, f3_scale(cam->forward, f3_dot(cam->forward, cam->up)));
+    cam->up = f3_normalize_len(cam->up, &len);
+    if (len < 1e-6f)
         return fail(ld, "camera.up: parallel to camera.forward");
-    v3_cross(cam->forward, cam->up, cam->right);
+    cam->right = f3_cross(cam->forward, cam->up);
     return 0;
 }
 
-/* o = R^T (p - t); identity (a copy) without a transform. */
-static void world_to_object_point(const render_mesh *m, const float p[3], float o[3])
+/* d_obj = R^T d, for directions and differentials; identity (a copy) without a
+ * transform. Not inlined: inlined into render_shading_geometry, GCC 12 (-march=native,
+ * AVX-512) merges the no-transform copies into one 256-bit store and returns without
+ * vzeroupper, and the dirty upper state then makes every later non-VEX SSE routine
+ * (glibc's fminf, called per camera sample in render.c) pay an AVX-SSE transition:
+ * 15% of a frame. */
+__attribute__((noinline)) static float3 world_to_object_vector(const render_mesh *m, float3 d)
 {
-    if (!m->has_transform) {
-        memcpy(o, p, 3 * sizeof(float));
-        return;
-    }
-    float d[3] = {p[0] - m->location[0], p[1] - m->location[1], p[2] - m->location[2]};
-    for (int r = 0; r < 3; r++)
-        o[r] = m->rotation[r] * d[0] + m->rotation[3 + r] * d[1] + m->rotation[6 + r] * d[2];
+    if (!m->has_transform)
+        return d;
+    const float *R = m->rotation;
+    return make_float3(R[0] * d.x + R[3] * d.y + R[6] * d.z, R[1] * d.x + R[4] * d.y + R[7] * d.z,
+                       R[2] * d.x + R[5] * d.y + R[8] * d.z);
 }
 
-/* d_obj = R^T d, for directions and differentials. */
-static void world_to_object_vector(const render_mesh *m, const float d[3], float o[3])
+/* o = R^T (p - t). */
+static float3 world_to_object_point(const render_mesh *m, float3 p)
 {
-    if (!m->has_transform) {
-        memcpy(o, d, 3 * sizeof(float));
-        return;
-    }
-    for (int r = 0; r < 3; r++)
-        o[r] = m->rotation[r] * d[0] + m->rotation[3 + r] * d[1] + m->rotation[6 + r] * d[2];
+    if (!m->has_transform)
+        return p;
+    return world_to_object_vector(m, f3_sub(p, f3_from_floats(m->location)));
 }
 
 /* "transform": {"location": [x, y, z], "rotation_euler": [rx, ry, rz]} (radians, Blender's
@@ -240,7 +243,8 @@ static int load_mesh(const loader *ld, const cJSON *o, int index, render_mesh *m
     if (!m->object_vertices)
         return fail(ld, "out of memory");
     for (int i = 0; i < nv; i++)
-        world_to_object_point(m, &m->vertices[3 * i], &m->object_vertices[3 * i]);
+        f3_to_floats(world_to_object_point(m, f3_from_floats(&m->vertices[3 * i])),
+                     &m->object_vertices[3 * i]);
     for (int k = 0; k < 3; k++) {
         m->bbox_min[k] = INFINITY;
         m->bbox_max[k] = -INFINITY;
@@ -259,8 +263,8 @@ static int load_light(const loader *ld, const cJSON *o, int index, point_light *
     snprintf(where, sizeof where, "lights[%d]", index);
     if (expect_string(ld, o, "type", where, "POINT") < 0)
         return -1;
-    float power = 0.0f, color[3] = {0, 0, 0};
-    if (get_floats(ld, o, "location", where, l->position, 3) < 0 ||
+    float power = 0.0f, color[3] = {0, 0, 0}, position[3];
+    if (get_floats(ld, o, "location", where, position, 3) < 0 ||
         get_float(ld, o, "radius", where, 0.0f, &l->radius) < 0 ||
         get_float(ld, o, "power", where, 0.0f, &power) < 0 ||
         get_floats(ld, o, "color", where, color, 3) < 0)
@@ -268,6 +272,7 @@ static int load_light(const loader *ld, const cJSON *o, int index, point_light *
     if (l->radius <= 0.0f)
         return fail(ld, "%s.radius: must be > 0 (a point light without size is not supported)",
                     where);
+    l->position = f3_from_floats(position);
     for (int k = 0; k < 3; k++) {
         if (color[k] < 0.0f)
             return fail(ld, "%s.color[%d]: must be >= 0", where, k);
@@ -470,54 +475,50 @@ void render_scene_resolution(const render_scene *s, int *width, int *height)
 /* Derivative of a per-vertex attribute along a world-space offset on the triangle:
  * solve offset = a e1 + b e2 in the triangle's plane (least squares), then the attribute
  * changes by a (A1 - A0) + b (A2 - A0). */
-static void attribute_differential(const float e1[3], const float e2[3], const float dA1[3],
-                                   const float dA2[3], const float off[3], float out[3])
+static float3 attribute_differential(float3 e1, float3 e2, float3 dA1, float3 dA2, float3 off)
 {
-    float a11 = v3_dot(e1, e1), a12 = v3_dot(e1, e2), a22 = v3_dot(e2, e2);
-    float b1 = v3_dot(e1, off), b2 = v3_dot(e2, off);
+    float a11 = f3_dot(e1, e1), a12 = f3_dot(e1, e2), a22 = f3_dot(e2, e2);
+    float b1 = f3_dot(e1, off), b2 = f3_dot(e2, off);
     float det = a11 * a22 - a12 * a12;
     float a = 0.0f, b = 0.0f;
     if (det != 0.0f) {
         a = (b1 * a22 - b2 * a12) / det;
         b = (a11 * b2 - a12 * b1) / det;
     }
-    for (int k = 0; k < 3; k++)
-        out[k] = a * dA1[k] + b * dA2[k];
+    return f3_add(f3_scale(dA1, a), f3_scale(dA2, b));
+}
+
+/* The barycentric interpolation bw A0 + bu A1 + bv A2, summed in that order. */
+static float3 interpolate(float bw, float bu, float bv, float3 a0, float3 a1, float3 a2)
+{
+    return f3_add(f3_add(f3_scale(a0, bw), f3_scale(a1, bu)), f3_scale(a2, bv));
 }
 
 void render_shading_geometry(const render_scene *s, int mesh, unsigned prim, float bu, float bv,
-                             const float D[3], float dP, shading_geometry *g)
+                             float3 D, float dP, shading_geometry *g)
 {
     const render_mesh *m = &s->meshes[mesh];
     const unsigned *tri = &m->triangles[3 * prim];
-    const float *v0 = &m->vertices[3 * tri[0]], *v1 = &m->vertices[3 * tri[1]],
-                *v2 = &m->vertices[3 * tri[2]];
-    float bw = 1.0f - bu - bv;
-    float e1[3], e2[3];
-    for (int k = 0; k < 3; k++) {
-        g->P[k] = bw * v0[k] + bu * v1[k] + bv * v2[k];
-        e1[k] = v1[k] - v0[k];
-        e2[k] = v2[k] - v0[k];
-    }
-    v3_cross(e1, e2, g->Ng);
-    v3_normalize(g->Ng);
+    float3 v0 = f3_from_floats(&m->vertices[3 * tri[0]]),
+           v1 = f3_from_floats(&m->vertices[3 * tri[1]]),
+           v2 = f3_from_floats(&m->vertices[3 * tri[2]]);
+    float bw = 1.0f - bu - bv, len;
+    g->P = interpolate(bw, bu, bv, v0, v1, v2);
+    float3 e1 = f3_sub(v1, v0), e2 = f3_sub(v2, v0);
+    g->Ng = f3_normalize_len(f3_cross(e1, e2), &len);
     /* Cycles flips nothing for a single-sided view here: the plane faces the camera.
      * A back-facing hit keeps its geometric normal; the BSDF sees wo below it. */
-    for (int k = 0; k < 3; k++) {
-        g->N[k] = g->Ng[k];
-        g->I[k] = -D[k];
-    }
-    float a[3], b[3];
-    render_make_orthonormals(g->Ng, a, b);
-    for (int k = 0; k < 3; k++) {
-        g->dPdx[k] = dP * a[k];
-        g->dPdy[k] = dP * b[k];
-    }
+    g->N = g->Ng;
+    g->I = f3_neg(D);
+    float3 a, b;
+    render_make_orthonormals(g->Ng, &a, &b);
+    g->dPdx = f3_scale(a, dP);
+    g->dPdy = f3_scale(b, dP);
     /* Object space: the transform's inverse (a copy without one). */
-    world_to_object_point(m, g->P, g->object);
-    world_to_object_vector(m, g->dPdx, g->dobject_dx);
-    world_to_object_vector(m, g->dPdy, g->dobject_dy);
-    world_to_object_vector(m, g->N, g->object_normal);
+    g->object = world_to_object_point(m, g->P);
+    g->dobject_dx = world_to_object_vector(m, g->dPdx);
+    g->dobject_dy = world_to_object_vector(m, g->dPdy);
+    g->object_normal = world_to_object_vector(m, g->N);
     /* Generated: the object-space bounding box to [0, 1], a flat axis at 0.5. */
     float gen[3][3], uv[3][3];
     const float *vs[3] = {&m->object_vertices[3 * tri[0]], &m->object_vertices[3 * tri[1]],
@@ -528,17 +529,15 @@ void render_shading_geometry(const render_scene *s, int mesh, unsigned prim, flo
             gen[c][k] = ext > 0.0f ? (vs[c][k] - m->bbox_min[k]) / ext : 0.5f;
             uv[c][k] = (m->uv && k < 2) ? m->uv[2 * tri[c] + k] : 0.0f;
         }
-    float dgen1[3], dgen2[3], duv1[3], duv2[3];
-    for (int k = 0; k < 3; k++) {
-        g->generated[k] = bw * gen[0][k] + bu * gen[1][k] + bv * gen[2][k];
-        g->uv[k] = bw * uv[0][k] + bu * uv[1][k] + bv * uv[2][k];
-        dgen1[k] = gen[1][k] - gen[0][k];
-        dgen2[k] = gen[2][k] - gen[0][k];
-        duv1[k] = uv[1][k] - uv[0][k];
-        duv2[k] = uv[2][k] - uv[0][k];
-    }
-    attribute_differential(e1, e2, dgen1, dgen2, g->dPdx, g->dgenerated_dx);
-    attribute_differential(e1, e2, dgen1, dgen2, g->dPdy, g->dgenerated_dy);
-    attribute_differential(e1, e2, duv1, duv2, g->dPdx, g->duv_dx);
-    attribute_differential(e1, e2, duv1, duv2, g->dPdy, g->duv_dy);
+    float3 gen0 = f3_from_floats(gen[0]), gen1 = f3_from_floats(gen[1]),
+           gen2 = f3_from_floats(gen[2]);
+    float3 uv0 = f3_from_floats(uv[0]), uv1 = f3_from_floats(uv[1]), uv2 = f3_from_floats(uv[2]);
+    g->generated = interpolate(bw, bu, bv, gen0, gen1, gen2);
+    g->uv = interpolate(bw, bu, bv, uv0, uv1, uv2);
+    float3 dgen1 = f3_sub(gen1, gen0), dgen2 = f3_sub(gen2, gen0);
+    float3 duv1 = f3_sub(uv1, uv0), duv2 = f3_sub(uv2, uv0);
+    g->dgenerated_dx = attribute_differential(e1, e2, dgen1, dgen2, g->dPdx);
+    g->dgenerated_dy = attribute_differential(e1, e2, dgen1, dgen2, g->dPdy);
+    g->duv_dx = attribute_differential(e1, e2, duv1, duv2, g->dPdx);
+    g->duv_dy = attribute_differential(e1, e2, duv1, duv2, g->dPdy);
 }

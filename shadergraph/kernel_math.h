@@ -30,13 +30,19 @@
  * (maxf(NaN, 0) = 0, and clampf(NaN, lo, hi) = lo), unlike fminf/fmaxf, which ignore a
  * quiet NaN in either operand and return a NaN for a signalling one. With finite bounds
  * the two agree on every input except signalling NaNs, which no arithmetic produces
- * and no graph, parameter or scene file can hold (JSON has no NaN).
+ * and no graph, parameter or scene file can hold (JSON has no NaN), and zeros of
+ * opposite signs: maxf(-0, +0) is its second operand, +0, while fmaxf may return either
+ * (GCC's inline expansion gives -0 here, glibc's function +0), so clampf(-0, 0, 1) is +0
+ * where fminf(fmaxf(-0, 0), 1) can be -0. Hence neither replaces the other unproved.
  *
- * Vectors. float3 is the kernels' vector type and the BSDF's (principled_vec3 is this
- * type). The renderer's geometry code (render_internal.h) still passes float[3] arrays:
- * one vocabulary for those is left to do. The f3_* operations are Cycles' float3
- * operators spelt as C functions (f3_dot = dot, f3_length = len), unfused, with dot's
- * sum (x + y) + z as _mm_dp_ps rounds it.
+ * Vectors. float3 is the one vector type of the kernels, the BSDF and the renderer's
+ * geometry (points, directions, normals, texture coordinates); colours stay float[3]
+ * arrays, worked on channel by channel, and so do the planar batches of the evaluator
+ * and the float arrays of Embree's API. The f3_* operations are Cycles' float3
+ * operators spelt as C functions (f3_dot = dot, f3_length = len, f3_neg = unary -),
+ * unfused, with dot's sum (x + y) + z as _mm_dp_ps rounds it. A chain of them rounds
+ * as the same expression written per component: f3_add(f3_add(a, f3_scale(b, s)), c) is
+ * (a + b s) + c in each channel.
  */
 #ifndef IMSYNTH_KERNEL_MATH_H
 #define IMSYNTH_KERNEL_MATH_H
@@ -78,6 +84,9 @@ static inline float3 f3_add(float3 a, float3 b) { return make_float3(a.x + b.x, 
 static inline float3 f3_sub(float3 a, float3 b) { return make_float3(a.x - b.x, a.y - b.y, a.z - b.z); }
 static inline float3 f3_mul(float3 a, float3 b) { return make_float3(a.x * b.x, a.y * b.y, a.z * b.z); }
 static inline float3 f3_scale(float3 a, float s) { return make_float3(a.x * s, a.y * s, a.z * s); }
+static inline float3 f3_neg(float3 a) { return make_float3(-a.x, -a.y, -a.z); }
+/* Cycles' isequal: every component compares equal (so -0 equals 0, and NaN nothing). */
+static inline bool f3_isequal(float3 a, float3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 static inline float f3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 static inline float3 f3_cross(float3 a, float3 b)
 {
@@ -97,6 +106,26 @@ static inline float3 safe_normalize(float3 a)
 {
     float l = f3_length(a);
     return l != 0.0f ? f3_scale(a, 1.0f / l) : a;
+}
+
+/* Cycles' safe_normalize_len, rounding alike (a divided by its length, which *len gets),
+ * but a stays as it is unless the length is positive: Cycles tests != 0, so a NaN length
+ * (a NaN component) would make every component NaN there. */
+static inline float3 f3_normalize_len(float3 a, float *len)
+{
+    float l = f3_length(a);
+    *len = l;
+    return l > 0.0f ? make_float3(a.x / l, a.y / l, a.z / l) : a;
+}
+
+/* Between float3 and the float[3] of interfaces that keep arrays (colour-like data,
+ * scene files, Embree's buffers). */
+static inline float3 f3_from_floats(const float a[3]) { return make_float3(a[0], a[1], a[2]); }
+static inline void f3_to_floats(float3 v, float a[3])
+{
+    a[0] = v.x;
+    a[1] = v.y;
+    a[2] = v.z;
 }
 
 /* ---- ensure_valid_reflection (Blender 3.x) --------------------------------------------

@@ -67,14 +67,15 @@ static void test_camera_hits_pixel_centres(void **state)
         sg_geometry_batch gb;
         sg_plane_geometry(w, h, py * w, n, storage, &gb);
         for (int px = 0; px < w; px += 5) {
-            float P[3], D[3], dP;
-            ortho_camera_ray(&s->camera, (float)px + 0.5f, (float)py + 0.5f, P, D, &dP);
+            float3 P, D;
+            float dP;
+            ortho_camera_ray(&s->camera, (float)px + 0.5f, (float)py + 0.5f, &P, &D, &dP);
             struct RTCIntersectContext ctx;
             rtcInitIntersectContext(&ctx);
             struct RTCRayHit rh;
             memset(&rh, 0, sizeof rh);
-            rh.ray.org_x = P[0], rh.ray.org_y = P[1], rh.ray.org_z = P[2];
-            rh.ray.dir_x = D[0], rh.ray.dir_y = D[1], rh.ray.dir_z = D[2];
+            rh.ray.org_x = P.x, rh.ray.org_y = P.y, rh.ray.org_z = P.z;
+            rh.ray.dir_x = D.x, rh.ray.dir_y = D.y, rh.ray.dir_z = D.z;
             rh.ray.tfar = INFINITY;
             rh.ray.mask = 0xffffffffu;
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -83,14 +84,14 @@ static void test_camera_hits_pixel_centres(void **state)
             assert_true(fabsf(rh.ray.tfar - 2.0f) < 1e-5f);
             shading_geometry g;
             render_shading_geometry(s, 0, rh.hit.primID, rh.hit.u, rh.hit.v, D, dP, &g);
-            const float *mine[] = {g.P, g.dPdx, g.dPdy, g.N, g.Ng, g.I, g.generated,
-                                   g.dgenerated_dx, g.dgenerated_dy, g.uv, g.duv_dx, g.duv_dy};
+            const float3 mine3[] = {g.P, g.dPdx, g.dPdy, g.N, g.Ng, g.I, g.generated,
+                                    g.dgenerated_dx, g.dgenerated_dy, g.uv, g.duv_dx, g.duv_dy};
             const float *theirs[] = {gb.P, gb.dPdx, gb.dPdy, gb.N, gb.Ng, gb.I, gb.generated,
                                      gb.dgenerated_dx, gb.dgenerated_dy, gb.uv, gb.duv_dx,
                                      gb.duv_dy};
             for (int f = 0; f < 12; f++)
                 for (int c = 0; c < 3; c++) {
-                    float a = mine[f][c], b = theirs[f][(size_t)c * (size_t)n + (size_t)px];
+                    float a = c == 0 ? mine3[f].x : c == 1 ? mine3[f].y : mine3[f].z, b = theirs[f][(size_t)c * (size_t)n + (size_t)px];
                     if (fabsf(a - b) > 2e-6f)
                         fail_msg("pixel (%d,%d) field %d[%d]: ours %.8g, plane %.8g", px, py,
                                  f, c, (double)a, (double)b);
@@ -224,14 +225,14 @@ static void test_light_irradiance(void **state)
         l.sphere = sphere;
         /* Directly below: the facing disk's irradiance is Le pi r^2 / (d^2 + r^2); the
          * sphere's is Le pi r^2 / d^2 (its cone, sin^2 = r^2/d^2). */
-        float P[3] = {0.45f, 0.35f, 0.0f}, N[3] = {0, 0, 1};
+        float3 P = make_float3(0.45f, 0.35f, 0.0f), N = make_float3(0, 0, 1);
         double E = 0.0;
         enum { S = 200000 };
         for (int i = 0; i < S; i++) {
             light_sample ls;
             if (point_light_sample(&l, P, render_random(1, 0, (uint32_t)i, 0),
                                    render_random(1, 0, (uint32_t)i, 1), &ls))
-                E += Le * fmaxf(0.0f, v3_dot(ls.wi, N)) / ls.pdf;
+                E += Le * fmaxf(0.0f, f3_dot(ls.wi, N)) / ls.pdf;
         }
         E /= S;
         double d2 = 0.55 * 0.55, r2 = 0.01;
@@ -247,19 +248,19 @@ static void test_light_irradiance(void **state)
 
         /* Off axis: light sampling and cosine-sampled BSDF rays that hit the light
          * estimate the same integral. */
-        float Q[3] = {-0.3f, 0.1f, 0.0f};
+        float3 Q = make_float3(-0.3f, 0.1f, 0.0f);
         double El = 0, Eb = 0;
         for (int i = 0; i < S; i++) {
             light_sample ls;
             if (point_light_sample(&l, Q, render_random(2, 0, (uint32_t)i, 0),
                                    render_random(2, 0, (uint32_t)i, 1), &ls))
-                El += Le * fmaxf(0.0f, v3_dot(ls.wi, N)) / ls.pdf;
+                El += Le * fmaxf(0.0f, f3_dot(ls.wi, N)) / ls.pdf;
         }
         enum { SB = 4000000 };
         for (int i = 0; i < SB; i++) {
             float u1 = render_random(3, 0, (uint32_t)i, 0), u2 = render_random(3, 0, (uint32_t)i, 1);
             float rr = sqrtf(u1), phi = 2.0f * (float)M_PI * u2;
-            float wi[3] = {rr * cosf(phi), rr * sinf(phi), sqrtf(fmaxf(0.0f, 1.0f - u1))};
+            float3 wi = make_float3(rr * cosf(phi), rr * sinf(phi), sqrtf(fmaxf(0.0f, 1.0f - u1)));
             float t, pdf;
             if (point_light_intersect(&l, Q, wi, &t, &pdf))
                 Eb += Le * M_PI; /* f_cos / pdf for cosine sampling is pi */
@@ -267,8 +268,8 @@ static void test_light_irradiance(void **state)
         El /= S, Eb /= SB;
         /* Exact: a uniform cone of half-angle alpha around axis a, wholly above the
          * surface, gives integral of cos = pi sin^2(alpha) (a . N). */
-        float dv[3] = {l.position[0] - Q[0], l.position[1] - Q[1], l.position[2] - Q[2]};
-        double dd = v3_dot(dv, dv), cosq = dv[2] / sqrt(dd);
+        float3 dv = f3_sub(l.position, Q);
+        double dd = f3_dot(dv, dv), cosq = dv.z / sqrt(dd);
         double sin2 = sphere ? r2 / dd : r2 / (dd + r2);
         double exact_q = Le * M_PI * sin2 * cosq;
         if (fabs(El - exact_q) > 2e-3 * exact_q || fabs(Eb - El) > 0.01 * El)
@@ -553,27 +554,28 @@ static void test_object_transform(void **state)
     }
     const float hits[3][2] = {{0.25f, 0.25f}, {0.4f, 0.1f}, {0.7f, 0.9f}};
     for (int i = 0; i < 3; i++) {
-        float D[3] = {0, 0, -1};
+        float3 D = make_float3(0, 0, -1);
         shading_geometry g, h;
         render_shading_geometry(t, 0, 0, hits[i][0], hits[i][1], D, 0.01f, &g);
         render_shading_geometry(s, 0, 0, hits[i][0], hits[i][1], D, 0.01f, &h);
-        assert_memory_equal(g.P, h.P, sizeof g.P);
-        assert_memory_equal(g.N, h.N, sizeof g.N);
-        assert_memory_equal(g.uv, h.uv, sizeof g.uv);
+        assert_memory_equal(&g.P, &h.P, sizeof g.P);
+        assert_memory_equal(&g.N, &h.N, sizeof g.N);
+        assert_memory_equal(&g.uv, &h.uv, sizeof g.uv);
         /* Identity: object space is world space, bit for bit. */
-        assert_memory_equal(h.object, h.P, sizeof h.P);
-        assert_memory_equal(h.dobject_dx, h.dPdx, sizeof h.P);
-        assert_memory_equal(h.object_normal, h.N, sizeof h.N);
-        double dx = g.P[0] - 0.3, dy = g.P[1] + 0.2;
+        assert_memory_equal(&h.object, &h.P, sizeof h.P);
+        assert_memory_equal(&h.dobject_dx, &h.dPdx, sizeof h.P);
+        assert_memory_equal(&h.object_normal, &h.N, sizeof h.N);
+        double dx = g.P.x - 0.3, dy = g.P.y + 0.2;
         double ox = c * dx + sn * dy, oy = -sn * dx + c * dy;
-        assert_true(fabs(g.object[0] - ox) < 1e-6 && fabs(g.object[1] - oy) < 1e-6);
-        assert_true(fabs(g.object[2] - g.P[2]) < 1e-6);
-        double ddx = c * g.dPdx[0] + sn * g.dPdx[1], ddy = -sn * g.dPdx[0] + c * g.dPdx[1];
-        assert_true(fabs(g.dobject_dx[0] - ddx) < 1e-7 && fabs(g.dobject_dx[1] - ddy) < 1e-7);
-        assert_true(fabs(g.object_normal[2] - 1.0) < 1e-6);
+        assert_true(fabs(g.object.x - ox) < 1e-6 && fabs(g.object.y - oy) < 1e-6);
+        assert_true(fabs(g.object.z - g.P.z) < 1e-6);
+        double ddx = c * g.dPdx.x + sn * g.dPdx.y, ddy = -sn * g.dPdx.x + c * g.dPdx.y;
+        assert_true(fabs(g.dobject_dx.x - ddx) < 1e-7 && fabs(g.dobject_dx.y - ddy) < 1e-7);
+        assert_true(fabs(g.object_normal.z - 1.0) < 1e-6);
         for (int k = 0; k < 2; k++) {
-            double gen = (g.object[k] - bmin[k]) / (bmax[k] - bmin[k]);
-            assert_true(fabs(g.generated[k] - gen) < 1e-5);
+            double o = k == 0 ? g.object.x : g.object.y;
+            double gen = (o - bmin[k]) / (bmax[k] - bmin[k]);
+            assert_true(fabs((k == 0 ? g.generated.x : g.generated.y) - gen) < 1e-5);
         }
     }
     /* A bad transform is named by its path. */
