@@ -12,6 +12,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 
+#include "shadergraph/shadergraph.h" /* sg_blender_mode */
+
 enum { EXIT_OK = 0, EXIT_FAILURE_WORK = 1, EXIT_USAGE = 2 };
 
 /* Each takes the arguments after the subcommand name (argv[0] is the subcommand). */
@@ -40,7 +42,7 @@ typedef struct cli_graph_args {
     const char *graph_path;
     const char *params_path; /* NULL: none */
     long long seed;          /* -1: none */
-    int blender;             /* SG_BLENDER_3 or SG_BLENDER_4 */
+    sg_blender_mode blender;
     const char *rest[32];
     int n_rest;
     char graph_buf[1024]; /* the default graph's resolved path */

@@ -145,7 +145,7 @@ int cmd_datagen(int argc, char **argv)
     datagen_options o;
     memset(&o, 0, sizeof o);
     o.shard_count = 1;
-    o.blender = 4;
+    o.blender = SG_BLENDER_4;
     o.preset = datagen_preset_find("datagen");
     o.images = DATAGEN_IMAGES_PNG16;
     o.descriptor = DATAGEN_DESC_MOBILENETV2_F16;

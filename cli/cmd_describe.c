@@ -1,6 +1,5 @@
 /* imsynth describe: VGG19 or MobileNetV2 Gram descriptors of images, one .npy row per
  * image. */
-#include <cblas.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,6 +9,8 @@
 #include "cli/cli.h"
 #include "imageio/imageio.h"
 #include "nn/nn.h"
+
+#include <cblas.h> /* after our headers: its <complex.h> defines I */
 
 /* The default network when no --weights is given (see vgg19_init_random). */
 enum { DEFAULT_SEED = 1 };

@@ -92,7 +92,7 @@ int cmd_evaluate(int argc, char **argv)
     evaluate_options o;
     memset(&o, 0, sizeof o);
     o.top_k = 8;
-    o.blender = 4;
+    o.blender = SG_BLENDER_4;
     o.sheet_inputs = 16;
     o.preset = datagen_preset_find("datagen");
     refine_options_default(&o.refine);

@@ -1,5 +1,4 @@
 /* imsynth infer: predictions of a trained model (imsynth train) for rows of X, as .npy. */
-#include <cblas.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -8,6 +7,8 @@
 
 #include "cli/cli.h"
 #include "nn/nn.h"
+
+#include <cblas.h> /* after our headers: its <complex.h> defines I */
 
 static const char *const help =
     "usage: imsynth infer MODEL.safetensors --x X.npy -o Y.npy [options]\n"

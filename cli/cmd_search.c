@@ -42,7 +42,7 @@ int cmd_search(int argc, char **argv)
     search_options o;
     memset(&o, 0, sizeof o);
     o.k = 8;
-    o.blender = 4;
+    o.blender = SG_BLENDER_4;
     o.print = 1;
     o.preset = datagen_preset_find("datagen");
     long long v;

@@ -2,7 +2,6 @@
 /* before cblas.h, whose complex.h defines I (a field name in shadergraph.h) */
 #include "pipeline/pipeline.h"
 
-#include <cblas.h>
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -14,6 +13,8 @@
 
 #include "cli/cli.h"
 #include "nn/nn.h"
+
+#include <cblas.h> /* after our headers: its <complex.h> defines I */
 
 static const char *const help =
     "usage: imsynth train --x X.npy --y Y.npy --arch SPEC -o MODEL.safetensors [options]\n"

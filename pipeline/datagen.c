@@ -43,7 +43,7 @@ const datagen_preset *datagen_preset_find(const char *name)
 
 const char *datagen_preset_names(void) { return "draft, datagen, converged"; }
 
-void datagen_preset_render_options(const datagen_preset *p, int blender, render_options *ro)
+void datagen_preset_render_options(const datagen_preset *p, sg_blender_mode blender, render_options *ro)
 {
     render_options_default(ro);
     ro->mode = RENDER_FAST;

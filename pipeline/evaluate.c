@@ -1654,7 +1654,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     if (!o->model_dir || !o->out_dir || (!o->test_path && !o->handmade_dir))
         return pipeline_error(err, errlen, "evaluate: needs a model, an output folder and a test "
                                            "dataset or a hand-made folder");
-    if (o->top_k < 1 || o->top_k > 256 || !o->preset || (o->blender != 3 && o->blender != 4) ||
+    if (o->top_k < 1 || o->top_k > 256 || !o->preset || (o->blender != SG_BLENDER_3 && o->blender != SG_BLENDER_4) ||
         o->refine.budget < 1)
         return pipeline_error(err, errlen, "evaluate: top-k in 1..256, a preset and Blender 3 "
                                            "or 4 are required");

@@ -39,7 +39,7 @@ sg_graph *pipeline_load_graph(const char *graph_path, const char *params_path, l
 }
 
 render_material *pipeline_render_material(const sg_graph *g, const char *graph_path,
-                                          int blender, char *err, size_t errlen)
+                                          sg_blender_mode blender, char *err, size_t errlen)
 {
     char msg[1024];
     render_material *m = render_material_new(g, blender, msg, sizeof msg);
@@ -49,10 +49,10 @@ render_material *pipeline_render_material(const sg_graph *g, const char *graph_p
 }
 
 /* The extracted sub-shader of g as JSON text (what "unchanged" is judged by). */
-static char *subshader_json(const sg_graph *g, int blender, int *nodes, char *err,
+static char *subshader_json(const sg_graph *g, sg_blender_mode blender, int *nodes, char *err,
                             size_t errlen)
 {
-    sg_extract_options opt = {.blender = blender == 3 ? SG_BLENDER_3 : SG_BLENDER_4};
+    sg_extract_options opt = {.blender = blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4};
     sg_error e;
     sg_graph *x = sg_extract(g, &opt, &e);
     if (!x) {
@@ -71,7 +71,7 @@ static char *subshader_json(const sg_graph *g, int blender, int *nodes, char *er
 /* Binds p with parameter k set to v, extracts, and says whether the sub-shader differs
  * from `base`: 1 differs, 0 same, -1 error. */
 static int differs_with(sg_graph *g, sg_params *p, int k, float v, const char *base,
-                        int blender, char *err, size_t errlen)
+                        sg_blender_mode blender, char *err, size_t errlen)
 {
     float keep = p->values[k];
     p->values[k] = v;
@@ -88,7 +88,7 @@ static int differs_with(sg_graph *g, sg_params *p, int k, float v, const char *b
     return d;
 }
 
-int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subshader_nodes,
+int pipeline_active_params(sg_graph *g, sg_blender_mode blender, uint8_t *active, int *subshader_nodes,
                            char *err, size_t errlen)
 {
     sg_params p;
@@ -134,7 +134,7 @@ int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subsh
     return rc;
 }
 
-int pipeline_distinct_subshaders(sg_graph *g, int blender, const float *params, int n, int keep,
+int pipeline_distinct_subshaders(sg_graph *g, sg_blender_mode blender, const float *params, int n, int keep,
                                  int *index, char *err, size_t errlen)
 {
     sg_params p, saved;

@@ -43,7 +43,7 @@ sg_graph *pipeline_load_graph(const char *graph_path, const char *params_path, l
 
 /* The renderer's view of a (bound) graph; NULL with a message naming graph_path. */
 render_material *pipeline_render_material(const sg_graph *g, const char *graph_path,
-                                          int blender, char *err, size_t errlen);
+                                          sg_blender_mode blender, char *err, size_t errlen);
 
 /* ---------------------------------------------------------------- active mask ------ */
 
@@ -59,7 +59,7 @@ render_material *pipeline_render_material(const sg_graph *g, const char *graph_p
  * active[k] is 0 or 1 for the k-th parameter of g (sg_params_from_graph order).
  * *subshader_nodes receives the extracted sub-shader's node count (may be NULL).
  * Returns 0, or -1 with a message. */
-int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subshader_nodes,
+int pipeline_active_params(sg_graph *g, sg_blender_mode blender, uint8_t *active, int *subshader_nodes,
                            char *err, size_t errlen);
 
 /* Of n parameter sets for g (rows in g's parameter order), the indices of the first `keep`
@@ -67,7 +67,7 @@ int pipeline_active_params(sg_graph *g, int blender, uint8_t *active, int *subsh
  * before: sets that differ only in what the sub-shader ignores render alike, so a search
  * over hypotheses should not spend renders on them. g's parameters are restored. Returns
  * the count, or -1 with a message. */
-int pipeline_distinct_subshaders(sg_graph *g, int blender, const float *params, int n, int keep,
+int pipeline_distinct_subshaders(sg_graph *g, sg_blender_mode blender, const float *params, int n, int keep,
                                  int *index, char *err, size_t errlen);
 
 /* ---------------------------------------------------------------- hashing ---------- */
@@ -90,7 +90,7 @@ const datagen_preset *datagen_preset_find(const char *name);
 /* Comma-separated list of preset names, for messages and --help. */
 const char *datagen_preset_names(void);
 /* Render options of a preset (fast mode), with render_options_default's threads and seed. */
-void datagen_preset_render_options(const datagen_preset *p, int blender, render_options *ro);
+void datagen_preset_render_options(const datagen_preset *p, sg_blender_mode blender, render_options *ro);
 
 typedef enum datagen_images { DATAGEN_IMAGES_NONE, DATAGEN_IMAGES_PNG16, DATAGEN_IMAGES_EXR } datagen_images;
 /* What datagen stores as a sample's descriptor (float16): nothing, the VGG19 Gram
@@ -128,7 +128,7 @@ typedef struct datagen_options {
     long long first_id, count; /* ids [first_id, first_id + count) ... */
     int shard_index, shard_count; /* ... with id % shard_count == shard_index */
     int threads;               /* worker threads (0 = online CPUs); never changes a byte */
-    int blender;               /* 4 or 3 */
+    sg_blender_mode blender;
     const datagen_preset *preset;
     datagen_augment augment;
     datagen_images images;
@@ -530,7 +530,7 @@ typedef struct evaluate_options {
     int top_k;                /* candidates of the -topk methods (>= 1) */
     long long limit;          /* at most this many test rows (<= 0: all) */
     int threads;              /* workers (0 = online CPUs); never changes a byte */
-    int blender;              /* 4 or 3 */
+    sg_blender_mode blender;
     uint64_t seed;            /* render seeds and the random method's draws */
     int sheet_inputs;         /* synthetic inputs on the contact sheet (16) */
     refine_options refine;    /* the -refine methods' search (budget 1: their start) */
@@ -575,7 +575,7 @@ typedef struct predict_options {
     predict_light light;      /* where the input's light was: our scene, a flash, or try both */
     double colour_weight;     /* pipeline_refine_loss's (PIPELINE_COLOUR_WEIGHT) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
-    int blender;              /* 4 or 3 */
+    sg_blender_mode blender;
     uint64_t seed;            /* render noise (one seed for the whole run) */
     const char *blend;        /* NULL, or a Blender executable: OUTDIR also gets
                                * material.blend, built by blender/import_material.py (the

@@ -49,7 +49,7 @@ void predict_options_default(predict_options *o)
     o->search_preset = datagen_preset_find("datagen");
     o->final_preset = datagen_preset_find("converged");
     o->light = PREDICT_LIGHT_SCENE;
-    o->blender = 4;
+    o->blender = SG_BLENDER_4;
     o->seed = 1;
     o->colour_weight = PIPELINE_COLOUR_WEIGHT;
 }

@@ -261,7 +261,7 @@ static void microfacet_formula(const closures *cl, const lobe *l, float3 L, floa
     float D = ggx_D(alpha2, f3_dot(l->N, H));
     float common = D * 0.25f / cos_nv;
     float G, G1v;
-    if (cl->blender == 3) {
+    if (cl->blender == SG_BLENDER_3) {
         /* 3.x: separable Smith, G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2)) = 1 / (1 + Lambda). */
         G1v = 1.0f / (1.0f + ggx_lambda(alpha2, cos_nv));
         G = G1v / (1.0f + ggx_lambda(alpha2, cos_nl));
@@ -386,7 +386,7 @@ static void diffuse_eval_uncut(const closures *cl, const lobe *l, float3 L, floa
         return;
     *pdf = cos_nl / PI_F;
     float shape = 1.0f;
-    if (cl->blender == 3) {
+    if (cl->blender == SG_BLENDER_3) {
         /* Disney diffuse: Lambert with Schlick-shaped entry and exit, plus retro-reflection
          * growing with roughness. */
         float cos_nv = f3_dot(l->N, cl->V);
@@ -677,21 +677,21 @@ void principled_inputs_default(principled_inputs *in)
     in->N = make_float3(0.0f, 0.0f, 1.0f);
 }
 
-int principled_prepare(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+int principled_prepare(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                        closures *cl)
 {
     *cl = (closures){0};
-    cl->blender = blender == 3 ? 3 : 4;
+    cl->blender = blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4;
     cl->V = wo;
     cl->Ng = Ng;
     if (f3_dot(cl->V, cl->Ng) <= 0.0f)
         return 0;
     float3 N = normalize_or(in->N, cl->Ng);
-    if (cl->blender == 3)
+    if (cl->blender == SG_BLENDER_3)
         setup_3x(cl, in, N);
     else
         setup_4x(cl, in, N);
-    cl->roughness = cl->blender == 3 ? in->roughness : saturatef(in->roughness);
+    cl->roughness = cl->blender == SG_BLENDER_3 ? in->roughness : saturatef(in->roughness);
     for (int i = 0; i < N_LOBES; i++)
         if (cl->lobe[i].active && !f3_isequal(cl->lobe[i].N, cl->Ng))
             cl->bumped = 1;
@@ -781,7 +781,7 @@ int principled_closure_sample(const closures *cl, const float u[3], float3 *wi,
     return *pdf > 0.0f;
 }
 
-void principled_eval(const principled_inputs *in, int blender, float3 wo, float3 wi, float3 Ng,
+void principled_eval(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 wi, float3 Ng,
                      float f_cos[3], float *pdf)
 {
     closures cl;
@@ -789,7 +789,7 @@ void principled_eval(const principled_inputs *in, int blender, float3 wo, float3
     principled_closure_eval(&cl, wi, f_cos, pdf);
 }
 
-int principled_sample(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+int principled_sample(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                       const float u[3], float3 *wi, float f_cos[3], float *pdf)
 {
     closures cl;
@@ -918,7 +918,7 @@ static void lobe_albedo_uncut(const closures *cl, int i, float alb[3])
     float mu = f3_dot(cl->V, l->N);
     if (i == LOBE_DIFFUSE) {
         float d = 1.0f;
-        if (cl->blender == 3) {
+        if (cl->blender == SG_BLENDER_3) {
             d = diffuse_albedo_3x(cl->diffuse_roughness, mu);
         } else if (!f3_isequal(l->N, cl->Ng)) {
             /* Lambert under the bump shadowing term depends on the tilt only. */
@@ -931,7 +931,7 @@ static void lobe_albedo_uncut(const closures *cl, int i, float alb[3])
         float3 R = f3_sub(f3_scale(l->N, 2.0f * mu), cl->V);
         if (!(f3_dot(cl->Ng, R) > 0.0f && f3_dot(l->N, R) > 0.0f))
             alb[0] = alb[1] = alb[2] = 0.0f;
-    } else if (cl->blender == 3) {
+    } else if (cl->blender == SG_BLENDER_3) {
         microfacet_albedo_3x(l, cl->roughness, mu, alb);
     } else {
         microfacet_albedo_4x(l, cl->roughness, mu, alb);
@@ -949,7 +949,7 @@ void principled_closure_albedo(const closures *cl, float albedo[3])
         if (!l->active || done[i])
             continue;
         float alb[3], alb2[3];
-        if (!f3_isequal(l->N, cl->Ng) && !(i == LOBE_DIFFUSE && cl->blender == 4)) {
+        if (!f3_isequal(l->N, cl->Ng) && !(i == LOBE_DIFFUSE && cl->blender == SG_BLENDER_4)) {
             /* 4.x's specular and metal lobes share normal and roughness: one pass. */
             int also = -1;
             if (i == LOBE_SPECULAR && cl->lobe[LOBE_METAL].active) {
@@ -968,7 +968,7 @@ void principled_closure_albedo(const closures *cl, float albedo[3])
     }
 }
 
-void principled_albedo(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+void principled_albedo(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                        float albedo[3])
 {
     closures cl;
@@ -1037,7 +1037,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
      * here. Above Ng but below the lobes' hemisphere Cycles' sampler still counts the
      * microfacet value (microfacet_sampled_value), which the tables leave out. */
     const bool above = f3_dot(cl->Ng, L) > 0.0f;
-    const bool diffuse_3x = cl->blender == 3 && cl->lobe[LOBE_DIFFUSE].active;
+    const bool diffuse_3x = cl->blender == SG_BLENDER_3 && cl->lobe[LOBE_DIFFUSE].active;
     bool sampler_only = false;
     for (int i = 0; above && i < N_LOBES; i++)
         sampler_only |= below_lobe_hemisphere(cl, i, L);
@@ -1059,7 +1059,7 @@ void principled_albedo_cut_estimate_shared(const closures *cl, const float u[3],
         const lobe *l = &cl->lobe[i];
         /* 4.x's diffuse table already includes the cut and the shadowing term; above Ng
          * only 3.x's diffuse differs from its uncut value. */
-        if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == 4) ||
+        if (!l->active || l->singular || (i == LOBE_DIFFUSE && cl->blender == SG_BLENDER_4) ||
             (above && i != LOBE_DIFFUSE && !below_lobe_hemisphere(cl, i, L)))
             continue;
         float f[3] = {0, 0, 0}, g[3], p;

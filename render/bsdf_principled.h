@@ -33,6 +33,7 @@
 #define IMSYNTH_RENDER_BSDF_PRINCIPLED_H
 
 #include "shadergraph/kernel_math.h"
+#include "shadergraph/shadergraph.h" /* sg_blender_mode */
 
 typedef struct principled_inputs {
     float base_color[3];
@@ -48,11 +49,11 @@ typedef struct principled_inputs {
 /* Blender 4.3's defaults for everything but N, which the caller sets. */
 void principled_inputs_default(principled_inputs *in);
 
-void principled_eval(const principled_inputs *in, int blender /* 3 or 4 */, float3 wo, float3 wi,
+void principled_eval(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 wi,
                      float3 Ng, float f_cos[3], float *pdf);
 
 /* u in [0,1)^3. Returns 0 if no direction was produced (then f_cos and pdf are 0). */
-int principled_sample(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+int principled_sample(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                       const float u[3], float3 *wi, float f_cos[3], float *pdf);
 
 /* Directional albedo: the integral of f_cos over all wi for this wo. Where the shading
@@ -61,7 +62,7 @@ int principled_sample(const principled_inputs *in, int blender, float3 wo, float
  * quadrature (~30 us of CPU, within 0.5%, 0.03% on average). A renderer with many bumped
  * shading points uses principled_albedo_uncut() + principled_albedo_cut_estimate()
  * instead (below). */
-void principled_albedo(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+void principled_albedo(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                        float albedo[3]);
 
 /* ---- Prepared closures ------------------------------------------------------------
@@ -87,7 +88,7 @@ typedef struct principled_lobe {
 enum { PRINCIPLED_DIFFUSE, PRINCIPLED_SPECULAR, PRINCIPLED_METAL, PRINCIPLED_LOBES };
 
 typedef struct principled_closure {
-    int blender;                /* 3 or 4 */
+    sg_blender_mode blender;
     float3 V, Ng;
     float roughness;            /* as the albedo tables take it */
     float diffuse_roughness;    /* 3.x retro-reflection */
@@ -97,7 +98,7 @@ typedef struct principled_closure {
 
 /* Returns 0 if the BSDF is zero for this view (wo below Ng); then the closure has no
  * active lobe and the functions below give zeros. */
-int principled_prepare(const principled_inputs *in, int blender, float3 wo, float3 Ng,
+int principled_prepare(const principled_inputs *in, sg_blender_mode blender, float3 wo, float3 Ng,
                        principled_closure *c);
 void principled_closure_eval(const principled_closure *c, float3 wi, float f_cos[3], float *pdf);
 int principled_closure_sample(const principled_closure *c, const float u[3], float3 *wi,

@@ -40,10 +40,10 @@ static const char *const input_sockets[IN_COUNT] = {
 
 struct render_material {
     sg_program *program;
-    int blender;
+    sg_blender_mode blender;
 };
 
-render_material *render_material_new(const sg_graph *g, int blender, char *err, size_t errlen)
+render_material *render_material_new(const sg_graph *g, sg_blender_mode blender, char *err, size_t errlen)
 {
     sg_error e;
     const char *bsdf = sg_graph_surface_bsdf(g, &e);
@@ -56,7 +56,7 @@ render_material *render_material_new(const sg_graph *g, int blender, char *err, 
         refs[i].node = bsdf;
         refs[i].socket = input_sockets[i];
     }
-    sg_compile_options opt = {blender == 3 ? SG_BLENDER_3 : SG_BLENDER_4};
+    sg_compile_options opt = {blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4};
     sg_program *p = sg_compile(g, refs, IN_COUNT, &opt, &e);
     if (!p) {
         snprintf(err, errlen, "%s", e.msg);
@@ -69,7 +69,7 @@ render_material *render_material_new(const sg_graph *g, int blender, char *err, 
         return NULL;
     }
     m->program = p;
-    m->blender = blender == 3 ? 3 : 4;
+    m->blender = blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4;
     return m;
 }
 
@@ -87,7 +87,7 @@ void render_options_default(render_options *o)
     o->mode = RENDER_FAST;
     o->spp = 4;
     o->light_samples = 4;
-    o->blender = 4;
+    o->blender = SG_BLENDER_4;
     o->threads = 0;
     o->seed = 0;
     o->max_spp = 256;
@@ -559,13 +559,13 @@ int render_image(const render_scene *s, const render_material *m, const render_o
         snprintf(err, errlen, "light samples must be in [1, 64] (got %d)", o->light_samples);
         return -1;
     }
-    if (o->blender != 3 && o->blender != 4) {
-        snprintf(err, errlen, "Blender version must be 3 or 4 (got %d)", o->blender);
+    if (o->blender != SG_BLENDER_3 && o->blender != SG_BLENDER_4) {
+        snprintf(err, errlen, "Blender version must be 3 or 4 (got %d)", (int)o->blender);
         return -1;
     }
     if (o->blender != m->blender) {
-        snprintf(err, errlen, "material compiled for Blender %d, render asks for %d", m->blender,
-                 o->blender);
+        snprintf(err, errlen, "material compiled for Blender %d, render asks for %d", (int)m->blender,
+                 (int)o->blender);
         return -1;
     }
     double t0 = now_seconds();
@@ -591,7 +591,7 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     if (s->n_lights > 0) {
         job->light = s->lights[0];
         /* 3.4 has only the facing disk; 4.x uses it with Soft Falloff. */
-        job->light.sphere = o->blender == 4 && !job->light.soft_falloff;
+        job->light.sphere = o->blender == SG_BLENDER_4 && !job->light.soft_falloff;
         job->setup.light = &job->light;
     }
     int width = job->camera.width, height = job->camera.height;

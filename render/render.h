@@ -36,7 +36,7 @@ void render_scene_resolution(const render_scene *s, int *width, int *height);
 
 /* The material: the graph's Principled BSDF inputs compiled for the evaluator. */
 typedef struct render_material render_material;
-render_material *render_material_new(const sg_graph *g, int blender, char *err, size_t errlen);
+render_material *render_material_new(const sg_graph *g, sg_blender_mode blender, char *err, size_t errlen);
 void render_material_free(render_material *m);
 
 typedef enum render_mode {
@@ -49,7 +49,7 @@ typedef struct render_options {
     int spp;           /* samples per pixel: paths (reference) or shading points (fast;
                           with adaptive sampling, the first phase's) */
     int light_samples; /* fast mode: light and BSDF sample pairs per shading point */
-    int blender;       /* 4 (default) or 3: BSDF semantics; light model follows */
+    sg_blender_mode blender; /* BSDF semantics; the light model follows */
     int threads;       /* 0 = all cores */
     uint64_t seed;
     int width, height; /* 0 = the scene's resolution */

@@ -159,7 +159,7 @@ void render_shading_geometry(const render_scene *s, int mesh, unsigned prim, flo
 typedef struct shade_setup {
     const render_scene *scene;
     const point_light *light; /* NULL when the scene has none */
-    int blender;
+    sg_blender_mode blender;
     render_mode mode;
     int light_samples; /* fast mode */
     uint64_t seed;
