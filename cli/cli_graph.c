@@ -114,16 +114,16 @@ int cli_write_material(const char *sub, int argc, char **argv, bool export_mode)
     sg_graph *g = cli_load_bound_graph(sub, &ga);
     if (!g)
         return EXIT_FAILURE_WORK;
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     sg_graph *x = g;
     if (!full) {
         sg_extract_options opt = {.blender = ga.blender};
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        x = sg_extract(g, &opt, &err);
+        x = sg_extract(g, &opt, err, sizeof err);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         if (!x) {
-            cli_error(sub, "%s: %s", ga.graph_path, err.msg);
+            cli_error(sub, "%s: %s", ga.graph_path, err);
             sg_graph_free(g);
             return EXIT_FAILURE_WORK;
         }
@@ -133,8 +133,8 @@ int cli_write_material(const char *sub, int argc, char **argv, bool export_mode)
                     1e3 * ((double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec)));
     }
     rc = EXIT_OK;
-    if (sg_graph_save_file(x, out_path, &err) < 0) {
-        cli_error(sub, "%s", err.msg);
+    if (sg_graph_save_file(x, out_path, err, sizeof err) < 0) {
+        cli_error(sub, "%s", err);
         rc = EXIT_FAILURE_WORK;
     }
     if (x != g)

@@ -80,22 +80,22 @@ int cmd_eval_graph(int argc, char **argv)
         return EXIT_USAGE;
     }
 
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     sg_socket_ref ref;
-    if (sg_socket_ref_parse(socket_arg, &ref, &err) < 0) {
-        cli_error(sub, "--socket %s", err.msg);
+    if (sg_socket_ref_parse(socket_arg, &ref, err, sizeof err) < 0) {
+        cli_error(sub, "--socket %s", err);
         return EXIT_USAGE;
     }
-    sg_graph *g = sg_graph_load_file(graph_path, &err);
+    sg_graph *g = sg_graph_load_file(graph_path, err, sizeof err);
     if (!g) {
-        cli_error(sub, "%s", err.msg);
+        cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }
     sg_compile_options opt = {.blender = blender == 3 ? SG_BLENDER_3 : SG_BLENDER_4};
-    sg_program *p = sg_compile(g, &ref, 1, &opt, &err);
+    sg_program *p = sg_compile(g, &ref, 1, &opt, err, sizeof err);
     sg_graph_free(g);
     if (!p) {
-        cli_error(sub, "%s: %s", graph_path, err.msg);
+        cli_error(sub, "%s: %s", graph_path, err);
         return EXIT_FAILURE_WORK;
     }
     enum { BATCH = 256 };

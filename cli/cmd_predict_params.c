@@ -31,9 +31,9 @@ static int write_params_atomic(const char *path, const char *const *names, const
                                int n, char *err, size_t errlen)
 {
     sg_params p = {.n = n, .names = (char **)names, .values = (float *)v};
-    sg_error e;
-    if (sg_params_write_file(path, &p, &e) < 0) {
-        snprintf(err, errlen, "%s", e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_params_write_file(path, &p, e, sizeof e) < 0) {
+        snprintf(err, errlen, "%s", e);
         return -1;
     }
     return 0;

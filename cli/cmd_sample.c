@@ -71,27 +71,27 @@ int cmd_sample(int argc, char **argv)
         return EXIT_USAGE;
     }
 
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     char graph_buf[1024];
     if (!(graph_path = cli_data_path(sub, graph_path, "assets/supershader.json", graph_buf,
                                      sizeof graph_buf)))
         return EXIT_FAILURE_WORK;
-    sg_graph *g = sg_graph_load_file(graph_path, &err);
+    sg_graph *g = sg_graph_load_file(graph_path, err, sizeof err);
     if (!g) {
-        cli_error(sub, "%s", err.msg);
+        cli_error(sub, "%s", err);
         return EXIT_FAILURE_WORK;
     }
     sg_params p;
-    if (sg_params_from_graph(g, &p, &err) < 0) {
-        cli_error(sub, "%s: %s", graph_path, err.msg);
+    if (sg_params_from_graph(g, &p, err, sizeof err) < 0) {
+        cli_error(sub, "%s: %s", graph_path, err);
         sg_graph_free(g);
         return EXIT_FAILURE_WORK;
     }
     sg_params_sample(&p, seed);
     int rc = EXIT_OK;
     if (out_path) {
-        if (sg_params_write_file(out_path, &p, &err) < 0) {
-            cli_error(sub, "%s", err.msg);
+        if (sg_params_write_file(out_path, &p, err, sizeof err) < 0) {
+            cli_error(sub, "%s", err);
             rc = EXIT_FAILURE_WORK;
         }
     } else {
@@ -103,9 +103,9 @@ int cmd_sample(int argc, char **argv)
         free(text);
     }
     if (rc == EXIT_OK && bound_path) {
-        if (sg_graph_bind_params(g, &p, &err) < 0 ||
-            sg_graph_save_file(g, bound_path, &err) < 0) {
-            cli_error(sub, "%s", err.msg);
+        if (sg_graph_bind_params(g, &p, err, sizeof err) < 0 ||
+            sg_graph_save_file(g, bound_path, err, sizeof err) < 0) {
+            cli_error(sub, "%s", err);
             rc = EXIT_FAILURE_WORK;
         }
     }

@@ -404,9 +404,9 @@ static int make_sample(worker *w, long long id, sample_result *r)
     r->id = id;
     double t0 = pipeline_now();
     sg_params_sample(&w->params, (unsigned long long)id);
-    sg_error e;
-    if (sg_graph_bind_params(w->graph, &w->params, &e) < 0)
-        return pipeline_error(r->err, sizeof r->err, "id %lld: %s", id, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_graph_bind_params(w->graph, &w->params, e, sizeof e) < 0)
+        return pipeline_error(r->err, sizeof r->err, "id %lld: %s", id, e);
     memcpy(r->params, w->params.values, (size_t)sh->n_params * sizeof(float));
     double t1 = pipeline_now();
     w->stage_seconds[0] += t1 - t0;
@@ -636,11 +636,11 @@ static int worker_init(worker *w, const shared *sh, int index, char *err, size_t
     memset(w, 0, sizeof *w);
     w->sh = sh;
     w->index = index;
-    sg_error e;
-    if (!(w->graph = sg_graph_load_file(sh->graph_path, &e)))
-        return pipeline_error(err, errlen, "%s", e.msg);
-    if (sg_params_from_graph(w->graph, &w->params, &e) < 0)
-        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (!(w->graph = sg_graph_load_file(sh->graph_path, e, sizeof e)))
+        return pipeline_error(err, errlen, "%s", e);
+    if (sg_params_from_graph(w->graph, &w->params, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e);
     if (sh->desc_size && descriptor_worker_init(&w->dw, &sh->desc))
         return pipeline_error(err, errlen, "out of memory for the descriptor workspace");
     return 0;

@@ -223,9 +223,9 @@ static int render_params(input_work *iw, const float *params, image *out, char *
     worker *w = iw->w;
     const shared *sh = w->sh;
     memcpy(w->params.values, params, (size_t)sh->n_params * sizeof(float));
-    sg_error e;
-    if (sg_graph_bind_params(w->graph, &w->params, &e) < 0)
-        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_graph_bind_params(w->graph, &w->params, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e);
     render_material *m =
         pipeline_render_material(w->graph, sh->graph_path, sh->o->blender, err, errlen);
     if (!m)
@@ -384,9 +384,9 @@ static int refine_active_cb(void *ctx, const float *params, uint8_t *active, cha
     input_work *iw = ctx;
     worker *w = iw->w;
     memcpy(w->params.values, params, (size_t)w->sh->n_params * sizeof(float));
-    sg_error e;
-    if (sg_graph_bind_params(w->graph, &w->params, &e) < 0)
-        return pipeline_error(err, errlen, "%s: %s", w->sh->graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_graph_bind_params(w->graph, &w->params, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", w->sh->graph_path, e);
     return pipeline_active_params(w->graph, w->sh->o->blender, active, NULL, err, errlen);
 }
 
@@ -599,11 +599,11 @@ static int worker_init(worker *w, shared *sh, char *err, size_t errlen)
 {
     memset(w, 0, sizeof *w);
     w->sh = sh;
-    sg_error e;
-    if (!(w->graph = sg_graph_load_file(sh->graph_path, &e)))
-        return pipeline_error(err, errlen, "%s", e.msg);
-    if (sg_params_from_graph(w->graph, &w->params, &e) < 0)
-        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (!(w->graph = sg_graph_load_file(sh->graph_path, e, sizeof e)))
+        return pipeline_error(err, errlen, "%s", e);
+    if (sg_params_from_graph(w->graph, &w->params, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", sh->graph_path, e);
     for (int k = 0; k < 2; k++) {
         if (!(w->desc[k] = pipeline_descriptor_create(gram_kinds[k], err, errlen)))
             return -1;
@@ -1739,9 +1739,9 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         pipeline_find_data(o->flash_scene_path ? o->flash_scene_path : "assets/scene-flash.json",
                            flash_path, sizeof flash_path, err, errlen))
         goto done;
-    sg_error e;
-    if (!(g = sg_graph_load_file(sh.graph_path, &e)) || sg_params_from_graph(g, &gp, &e) < 0) {
-        pipeline_error(err, errlen, "%s: %s", sh.graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (!(g = sg_graph_load_file(sh.graph_path, e, sizeof e)) || sg_params_from_graph(g, &gp, e, sizeof e) < 0) {
+        pipeline_error(err, errlen, "%s: %s", sh.graph_path, e);
         goto done;
     }
     if (gp.n != sh.n_params) {

@@ -8,30 +8,30 @@
 sg_graph *pipeline_load_graph(const char *graph_path, const char *params_path, long long seed,
                               char *err, size_t errlen)
 {
-    sg_error e;
-    sg_graph *g = sg_graph_load_file(graph_path, &e);
+    char e[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(graph_path, e, sizeof e);
     if (!g) {
-        pipeline_error(err, errlen, "%s", e.msg);
+        pipeline_error(err, errlen, "%s", e);
         return NULL;
     }
     if (!params_path && seed < 0)
         return g;
     sg_params p;
-    if (sg_params_from_graph(g, &p, &e) < 0) {
-        pipeline_error(err, errlen, "%s: %s", graph_path, e.msg);
+    if (sg_params_from_graph(g, &p, e, sizeof e) < 0) {
+        pipeline_error(err, errlen, "%s: %s", graph_path, e);
         sg_graph_free(g);
         return NULL;
     }
     int rc = 0;
     if (params_path)
-        rc = sg_params_read_file(params_path, &p, &e);
+        rc = sg_params_read_file(params_path, &p, e, sizeof e);
     else
         sg_params_sample(&p, (unsigned long long)seed);
     if (rc == 0)
-        rc = sg_graph_bind_params(g, &p, &e);
+        rc = sg_graph_bind_params(g, &p, e, sizeof e);
     sg_params_free(&p);
     if (rc < 0) {
-        pipeline_error(err, errlen, "%s", e.msg);
+        pipeline_error(err, errlen, "%s", e);
         sg_graph_free(g);
         return NULL;
     }
@@ -53,10 +53,10 @@ static char *subshader_json(const sg_graph *g, sg_blender_mode blender, int *nod
                             size_t errlen)
 {
     sg_extract_options opt = {.blender = blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4};
-    sg_error e;
-    sg_graph *x = sg_extract(g, &opt, &e);
+    char e[SG_ERROR_MAX] = "";
+    sg_graph *x = sg_extract(g, &opt, e, sizeof e);
     if (!x) {
-        pipeline_error(err, errlen, "extracting the sub-shader: %s", e.msg);
+        pipeline_error(err, errlen, "extracting the sub-shader: %s", e);
         return NULL;
     }
     if (nodes)
@@ -75,11 +75,11 @@ static int differs_with(sg_graph *g, sg_params *p, int k, float v, const char *b
 {
     float keep = p->values[k];
     p->values[k] = v;
-    sg_error e;
-    int rc = sg_graph_bind_params(g, p, &e);
+    char e[SG_ERROR_MAX] = "";
+    int rc = sg_graph_bind_params(g, p, e, sizeof e);
     p->values[k] = keep;
     if (rc < 0)
-        return pipeline_error(err, errlen, "%s", e.msg);
+        return pipeline_error(err, errlen, "%s", e);
     char *json = subshader_json(g, blender, NULL, err, errlen);
     if (!json)
         return -1;
@@ -92,9 +92,9 @@ int pipeline_active_params(sg_graph *g, sg_blender_mode blender, uint8_t *active
                            char *err, size_t errlen)
 {
     sg_params p;
-    sg_error e;
-    if (sg_params_from_graph(g, &p, &e) < 0)
-        return pipeline_error(err, errlen, "%s", e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_params_from_graph(g, &p, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s", e);
     char *base = subshader_json(g, blender, subshader_nodes, err, errlen);
     int rc = base ? 0 : -1;
     for (int k = 0; rc == 0 && k < p.n; k++) {
@@ -127,8 +127,8 @@ int pipeline_active_params(sg_graph *g, sg_blender_mode blender, uint8_t *active
             active[k] = (uint8_t)d;
     }
     /* Put g back as it came. */
-    if (sg_graph_bind_params(g, &p, &e) < 0 && rc == 0)
-        rc = pipeline_error(err, errlen, "%s", e.msg);
+    if (sg_graph_bind_params(g, &p, e, sizeof e) < 0 && rc == 0)
+        rc = pipeline_error(err, errlen, "%s", e);
     free(base);
     sg_params_free(&p);
     return rc;
@@ -138,9 +138,9 @@ int pipeline_distinct_subshaders(sg_graph *g, sg_blender_mode blender, const flo
                                  int *index, char *err, size_t errlen)
 {
     sg_params p, saved;
-    sg_error e;
-    if (sg_params_from_graph(g, &p, &e) < 0)
-        return pipeline_error(err, errlen, "%s", e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_params_from_graph(g, &p, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s", e);
     if (sg_params_copy(&p, &saved) < 0) {
         sg_params_free(&p);
         return pipeline_error(err, errlen, "out of memory");
@@ -149,8 +149,8 @@ int pipeline_distinct_subshaders(sg_graph *g, sg_blender_mode blender, const flo
     int got = 0, rc = kept ? 0 : pipeline_error(err, errlen, "out of memory");
     for (int i = 0; rc == 0 && i < n && got < keep; i++) {
         memcpy(p.values, params + (size_t)i * (size_t)p.n, (size_t)p.n * sizeof(float));
-        if (sg_graph_bind_params(g, &p, &e) < 0) {
-            rc = pipeline_error(err, errlen, "parameter set %d: %s", i, e.msg);
+        if (sg_graph_bind_params(g, &p, e, sizeof e) < 0) {
+            rc = pipeline_error(err, errlen, "parameter set %d: %s", i, e);
             break;
         }
         char *json = subshader_json(g, blender, NULL, err, errlen);
@@ -168,8 +168,8 @@ int pipeline_distinct_subshaders(sg_graph *g, sg_blender_mode blender, const flo
             index[got++] = i;
         }
     }
-    if (sg_graph_bind_params(g, &saved, &e) < 0 && rc == 0)
-        rc = pipeline_error(err, errlen, "%s", e.msg);
+    if (sg_graph_bind_params(g, &saved, e, sizeof e) < 0 && rc == 0)
+        rc = pipeline_error(err, errlen, "%s", e);
     for (int j = 0; j < got; j++)
         free(kept[j]);
     free(kept);

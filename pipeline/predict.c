@@ -84,9 +84,9 @@ typedef struct scorer {
 static int bind(scorer *sc, const float *params, char *err, size_t errlen)
 {
     memcpy(sc->params.values, params, (size_t)sc->params.n * sizeof(float));
-    sg_error e;
-    if (sg_graph_bind_params(sc->graph, &sc->params, &e) < 0)
-        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_graph_bind_params(sc->graph, &sc->params, e, sizeof e) < 0)
+        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e);
     return 0;
 }
 
@@ -133,10 +133,10 @@ static int score(scorer *sc, const float *params, double *g, double *c, char *er
     if (bind(sc, params, err, errlen))
         return -1;
     sg_extract_options eo = {.blender = sc->o->blender};
-    sg_error e;
-    sg_graph *sub = sg_extract(sc->graph, &eo, &e);
+    char e[SG_ERROR_MAX] = "";
+    sg_graph *sub = sg_extract(sc->graph, &eo, e, sizeof e);
     if (!sub)
-        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e.msg);
+        return pipeline_error(err, errlen, "%s: %s", sc->graph_path, e);
     char *json = sg_graph_to_json(sub);
     sg_graph_free(sub);
     if (!json)
@@ -472,9 +472,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
 
     if (!(sc.graph = pipeline_load_graph(sc.graph_path, NULL, -1, err, errlen)))
         goto done;
-    sg_error e;
-    if (sg_params_from_graph(sc.graph, &sc.params, &e) < 0) {
-        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e.msg);
+    char e[SG_ERROR_MAX] = "";
+    if (sg_params_from_graph(sc.graph, &sc.params, e, sizeof e) < 0) {
+        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e);
         goto done;
     }
     int np = sc.params.n;
@@ -605,8 +605,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     if (image_distances(&sc, &preview, &final_g, &final_c, err, errlen))
         goto done;
     sg_extract_options eo = {.blender = o->blender};
-    if (!(sub = sg_extract(sc.graph, &eo, &e))) {
-        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e.msg);
+    if (!(sub = sg_extract(sc.graph, &eo, e, sizeof e))) {
+        pipeline_error(err, errlen, "%s: %s", sc.graph_path, e);
         goto done;
     }
     t_final = pipeline_now() - t_stage;
@@ -626,14 +626,14 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         goto done;
     }
     snprintf(path, sizeof path, "%s/material.json", tmp_dir);
-    if (sg_graph_save_file(sub, path, &e) < 0) {
-        pipeline_error(err, errlen, "%s", e.msg);
+    if (sg_graph_save_file(sub, path, e, sizeof e) < 0) {
+        pipeline_error(err, errlen, "%s", e);
         goto done;
     }
     snprintf(path, sizeof path, "%s/params.json", tmp_dir);
     memcpy(sc.params.values, best, (size_t)np * sizeof(float));
-    if (sg_params_write_file(path, &sc.params, &e) < 0) {
-        pipeline_error(err, errlen, "%s", e.msg);
+    if (sg_params_write_file(path, &sc.params, e, sizeof e) < 0) {
+        pipeline_error(err, errlen, "%s", e);
         goto done;
     }
     snprintf(path, sizeof path, "%s/preview.png", tmp_dir);

@@ -219,21 +219,21 @@ static int render_hits(const search_options *o, hit *h, int n, int n_params, cha
     sg_graph *g = pipeline_load_graph(gp, NULL, -1, err, errlen);
     render_scene *scene = g ? render_scene_load(sp, err, errlen) : NULL;
     sg_params params = {0};
-    sg_error e;
+    char e[SG_ERROR_MAX] = "";
     int rc = -1;
     if (!scene)
         goto done;
-    if (sg_params_from_graph(g, &params, &e) < 0 || params.n != n_params) {
+    if (sg_params_from_graph(g, &params, e, sizeof e) < 0 || params.n != n_params) {
         pipeline_error(err, errlen, "%s: %s", gp,
-                       params.n != n_params ? "not the model's parameters" : e.msg);
+                       params.n != n_params ? "not the model's parameters" : e);
         goto done;
     }
     for (int i = 0; i < n; i++) {
         if (h[i].img.pixels)
             continue;
         memcpy(params.values, h[i].params, (size_t)n_params * sizeof(float));
-        if (sg_graph_bind_params(g, &params, &e) < 0) {
-            pipeline_error(err, errlen, "%s: %s", gp, e.msg);
+        if (sg_graph_bind_params(g, &params, e, sizeof e) < 0) {
+            pipeline_error(err, errlen, "%s: %s", gp, e);
             goto done;
         }
         render_material *m = pipeline_render_material(g, gp, o->blender, err, errlen);

@@ -45,10 +45,10 @@ struct render_material {
 
 render_material *render_material_new(const sg_graph *g, sg_blender_mode blender, char *err, size_t errlen)
 {
-    sg_error e;
-    const char *bsdf = sg_graph_surface_bsdf(g, &e);
+    char e[SG_ERROR_MAX] = "";
+    const char *bsdf = sg_graph_surface_bsdf(g, e, sizeof e);
     if (!bsdf) {
-        snprintf(err, errlen, "%s", e.msg);
+        snprintf(err, errlen, "%s", e);
         return NULL;
     }
     sg_socket_ref refs[IN_COUNT];
@@ -57,9 +57,9 @@ render_material *render_material_new(const sg_graph *g, sg_blender_mode blender,
         refs[i].socket = input_sockets[i];
     }
     sg_compile_options opt = {blender == SG_BLENDER_3 ? SG_BLENDER_3 : SG_BLENDER_4};
-    sg_program *p = sg_compile(g, refs, IN_COUNT, &opt, &e);
+    sg_program *p = sg_compile(g, refs, IN_COUNT, &opt, e, sizeof e);
     if (!p) {
-        snprintf(err, errlen, "%s", e.msg);
+        snprintf(err, errlen, "%s", e);
         return NULL;
     }
     render_material *m = calloc(1, sizeof *m);

@@ -44,7 +44,8 @@ typedef struct instance {
 
 typedef struct compiler {
     sg_program *p;
-    sg_error *err;
+    char *err; /* the caller\'s message buffer */
+    size_t errlen;
     instance **all;
     int n_all, cap_all;
     int cap_regs, cap_instr;
@@ -59,7 +60,7 @@ static int fail(compiler *c, const char *fmt, const char *a, const char *b)
     if (!c->failed) {
         char msg[400];
         snprintf(msg, sizeof msg, fmt, a, b);
-        sg_error_set(c->err, "%s", msg);
+        sg_error_set(c->err, c->errlen, "%s", msg);
     }
     c->failed = true;
     return -1;
@@ -363,11 +364,11 @@ static source emit_node(compiler *c, instance *in, int node, int socket)
     return s;
 }
 
-int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err)
+int sg_socket_ref_parse(char *text, sg_socket_ref *ref, char *err, size_t errlen)
 {
     char *colon = strrchr(text, ':');
     if (!colon || colon == text || !colon[1])
-        return sg_error_set(err, "\"%s\": expected NODE:SOCKET", text);
+        return sg_error_set(err, errlen, "\"%s\": expected NODE:SOCKET", text);
     *colon = '\0';
     ref->node = text;
     ref->socket = colon + 1;
@@ -375,12 +376,12 @@ int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err)
 }
 
 static sg_program *compile_flat(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
-                                const sg_compile_options *opt, sg_error *err)
+                                const sg_compile_options *opt, char *err, size_t errlen)
 {
-    compiler c = {.err = err};
+    compiler c = {.err = err, .errlen = errlen};
     sg_program *p = calloc(1, sizeof *p);
     if (!p) {
-        sg_error_set(err, "out of memory");
+        sg_error_set(err, errlen, "out of memory");
         return NULL;
     }
     c.p = p;
@@ -458,23 +459,23 @@ void sg_program_free(sg_program *p)
  * whose algebraic folds (x * 0 = 0, Mix with factor 1 = B, ...) are part of what a
  * Blender material computes. */
 sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
-                       const sg_compile_options *opt, sg_error *err)
+                       const sg_compile_options *opt, char *err, size_t errlen)
 {
     sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
     sg_socket_ref *resolved = calloc((size_t)n_refs + 1, sizeof *resolved);
     sg_socket_type *types = calloc((size_t)n_refs + 1, sizeof *types);
     sg_graph *folded = resolved && types
                            ? sg_fold_for_compile(g, mode, !(opt && opt->unfolded), refs, n_refs,
-                                                 resolved, types, err)
+                                                 resolved, types, err, errlen)
                            : NULL;
     sg_program *p = NULL;
     if (folded) {
         sg_compile_options o = {.blender = mode};
-        p = compile_flat(folded, resolved, n_refs, &o, err);
+        p = compile_flat(folded, resolved, n_refs, &o, err, errlen);
         for (int k = 0; p && k < n_refs; k++)
             p->output_type[k] = types[k];
     } else if (!resolved || !types) {
-        sg_error_set(err, "out of memory");
+        sg_error_set(err, errlen, "out of memory");
     }
     sg_graph_free(folded);
     free(resolved);

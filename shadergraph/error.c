@@ -3,12 +3,12 @@
 
 #include "shadergraph/shadergraph.h"
 
-int sg_error_set(sg_error *err, const char *fmt, ...)
+int sg_error_set(char *err, size_t errlen, const char *fmt, ...)
 {
-    if (err) {
+    if (err && errlen) {
         va_list ap;
         va_start(ap, fmt);
-        vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+        vsnprintf(err, errlen, fmt, ap);
         va_end(ap);
     }
     return -1;

@@ -202,9 +202,9 @@ static void compact(sg_flat *f)
  * looked up once compaction has made them final. */
 static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool extract,
                                   bool fold_constants, const sg_socket_ref *refs, int n_refs,
-                                  sg_socket_ref *resolved, sg_socket_type *types, sg_error *err)
+                                  sg_socket_ref *resolved, sg_socket_type *types, char *err, size_t errlen)
 {
-    sg_flat f = {.err = err};
+    sg_flat f = {.err = err, .errlen = errlen};
     sg_flatten(&f, g, refs, n_refs, resolved, types);
     for (int round = 0; fold_constants && !f.failed && round < 10000; round++) {
         bool changed = sg_fold_pass(&f, mode);
@@ -221,7 +221,7 @@ static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool 
     sg_graph *out = calloc(1, sizeof *out);
     if (f.failed || !out || !(out->name = strdup(g->name)) || !(out->main.name = strdup(g->name))) {
         if (!f.failed)
-            sg_error_set(err, "out of memory during extraction");
+            sg_error_set(err, errlen, "out of memory during extraction");
         sg_flat_free(&f);
         if (out) {
             free(out->name);
@@ -244,15 +244,15 @@ static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool 
     return out;
 }
 
-sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err)
+sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, char *err, size_t errlen)
 {
     sg_blender_mode mode = opt && opt->blender ? opt->blender : SG_BLENDER_4;
-    return flatten_and_fold(g, mode, true, true, NULL, 0, NULL, NULL, err);
+    return flatten_and_fold(g, mode, true, true, NULL, 0, NULL, NULL, err, errlen);
 }
 
 sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, bool fold_constants,
                               const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
-                              sg_socket_type *types, sg_error *err)
+                              sg_socket_type *types, char *err, size_t errlen)
 {
-    return flatten_and_fold(g, mode, false, fold_constants, refs, n_refs, resolved, types, err);
+    return flatten_and_fold(g, mode, false, fold_constants, refs, n_refs, resolved, types, err, errlen);
 }

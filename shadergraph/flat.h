@@ -20,7 +20,8 @@ typedef struct sg_flat {
     sg_tree t;
     int cap_nodes, cap_links;
     bool *dead; /* per node, cap_nodes entries */
-    sg_error *err;
+    char *err; /* the caller\'s message buffer */
+    size_t errlen;
     bool failed;
     const sg_graph *src;
     int n_contexts; /* group instances made so far: bounded like nodes */
@@ -32,7 +33,7 @@ typedef struct sg_flat {
  * whose Displacement (vectors, colours) or Thickness (floats) reads it; `resolved[k]`
  * gets its socket (node NULL, to be named once the graph is final) and `types[k]` the
  * ref's value type. An input-socket ref is passed through as it is. Returns false on
- * failure (f->failed, f->err). */
+ * failure (f->failed, f->err, f->errlen). */
 bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_refs,
                 sg_socket_ref *resolved, sg_socket_type *types);
 

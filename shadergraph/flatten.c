@@ -26,7 +26,7 @@
 int sg_flat_oom(sg_flat *f)
 {
     if (!f->failed)
-        sg_error_set(f->err, "out of memory during extraction");
+        sg_error_set(f->err, f->errlen, "out of memory during extraction");
     f->failed = true;
     return -1;
 }
@@ -38,7 +38,7 @@ static int add_node(sg_flat *f, const sg_node *n, const char *name)
      * of nodes. */
     if (f->t.n_nodes >= SG_MAX_FLAT_NODES) {
         if (!f->failed)
-            sg_error_set(f->err, "more than %d nodes once the groups are inlined (FORMAT.md, Limits)",
+            sg_error_set(f->err, f->errlen, "more than %d nodes once the groups are inlined (FORMAT.md, Limits)",
                          SG_MAX_FLAT_NODES);
         f->failed = true;
         return -1;
@@ -233,7 +233,7 @@ static source resolve_out(sg_flat *f, context *c, int node, int socket)
     if (f->failed)
         return none;
     if (f->depth >= SG_MAX_RESOLVE_DEPTH) {
-        sg_error_set(f->err, "a link path crosses more than %d reroutes and group interfaces "
+        sg_error_set(f->err, f->errlen, "a link path crosses more than %d reroutes and group interfaces "
                              "(FORMAT.md, Limits)", SG_MAX_RESOLVE_DEPTH);
         f->failed = true;
         return none;
@@ -297,7 +297,7 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
      * multiply all the same. */
     if (++f->n_contexts > SG_MAX_FLAT_NODES) {
         if (!f->failed)
-            sg_error_set(f->err, "more than %d group instances once the groups are inlined "
+            sg_error_set(f->err, f->errlen, "more than %d group instances once the groups are inlined "
                          "(FORMAT.md, Limits)", SG_MAX_FLAT_NODES);
         f->failed = true;
         return NULL;
@@ -424,7 +424,7 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
     for (int k = 0; k < n_refs && root && !f->failed; k++) {
         int node = sg_tree_find_node(&g->main, refs[k].node);
         if (node < 0) {
-            sg_error_set(f->err, "no node named \"%s\"", refs[k].node);
+            sg_error_set(f->err, f->errlen, "no node named \"%s\"", refs[k].node);
             f->failed = true;
             break;
         }
@@ -432,13 +432,13 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
         int out = sg_node_output_index(n, refs[k].socket);
         int inp = sg_node_input_index(n, refs[k].socket);
         if (out < 0 && inp < 0) {
-            sg_error_set(f->err, "node \"%s\" has no socket \"%s\"", n->name, refs[k].socket);
+            sg_error_set(f->err, f->errlen, "node \"%s\" has no socket \"%s\"", n->name, refs[k].socket);
             f->failed = true;
             break;
         }
         if (out < 0) {
             if (root->map[node] < 0) {
-                sg_error_set(f->err, "node \"%s\": input \"%s\" cannot be evaluated", n->name, refs[k].socket);
+                sg_error_set(f->err, f->errlen, "node \"%s\": input \"%s\" cannot be evaluated", n->name, refs[k].socket);
                 f->failed = true;
                 break;
             }
@@ -447,7 +447,7 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
             continue;
         }
         if (n->out[out].type == SG_SOCKET_SHADER) {
-            sg_error_set(f->err, "node \"%s\": output \"%s\" is a shader and has no value", n->name,
+            sg_error_set(f->err, f->errlen, "node \"%s\": output \"%s\" is a shader and has no value", n->name,
                          refs[k].socket);
             f->failed = true;
             break;

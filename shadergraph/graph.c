@@ -22,7 +22,8 @@
 /* Everything a loading pass needs to say where it is. */
 typedef struct load_ctx {
     const char *source; /* file name for messages */
-    sg_error *err;
+    char *err; /* the caller\'s message buffer */
+    size_t errlen;
     sg_graph *g;
 } load_ctx;
 
@@ -91,13 +92,13 @@ static int find_group(const sg_graph *g, const char *name)
 static int read_number(const load_ctx *c, const cJSON *j, const char *where, float *out)
 {
     if (!cJSON_IsNumber(j))
-        return sg_error_set(c->err, "%s: %s: expected a number", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %s: expected a number", c->source, where);
     /* The bound is FLT_MAX plus half its ulp: every double below it rounds to a finite
      * float. Comparing with FLT_MAX itself refused the 9-digit text we write for FLT_MAX
      * (3.40282347e+38 lies above it), so a saved graph would not load again (fuzz_graph). */
     double v = j->valuedouble;
     if (!isfinite(v) || fabs(v) >= (double)FLT_MAX + 0x1p103)
-        return sg_error_set(c->err, "%s: %s: value is not a finite float", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %s: value is not a finite float", c->source, where);
     *out = (float)v;
     return 0;
 }
@@ -108,13 +109,13 @@ static int read_value(const load_ctx *c, const cJSON *j, sg_socket_type t, const
 {
     int width = sg_socket_type_width(t);
     if (t == SG_SOCKET_SHADER)
-        return sg_error_set(c->err, "%s: %s: shader sockets have no value", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %s: shader sockets have no value", c->source, where);
     if (width == 1)
         return read_number(c, j, where, &out[0]);
     int n = cJSON_GetArraySize(j);
     bool ok = cJSON_IsArray(j) && (n == 3 || (t == SG_SOCKET_COLOR && n == 4));
     if (!ok)
-        return sg_error_set(c->err, "%s: %s: expected an array of %s numbers", c->source, where,
+        return sg_error_set(c->err, c->errlen, "%s: %s: expected an array of %s numbers", c->source, where,
                             t == SG_SOCKET_COLOR ? "3 or 4" : "3");
     out[3] = 1.0f;
     for (int i = 0; i < n; i++) {
@@ -141,7 +142,7 @@ static int parse_socket_type(const load_ctx *c, const cJSON *j, const char *wher
                 *t = types[i];
                 return 0;
             }
-    return sg_error_set(c->err,
+    return sg_error_set(c->err, c->errlen,
                         "%s: %s: socket type must be FLOAT, VECTOR, RGBA, SHADER, INT or BOOLEAN",
                         c->source, where);
 }
@@ -165,12 +166,12 @@ static int parse_iface(const load_ctx *c, const cJSON *arr, const char *where,
         return 0;
     }
     if (!cJSON_IsArray(arr))
-        return sg_error_set(c->err, "%s: %s: expected an array", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %s: expected an array", c->source, where);
     int n = cJSON_GetArraySize(arr);
     *out = calloc((size_t)(n ? n : 1), sizeof **out);
     *n_out = n;
     if (!*out)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
     for (int i = 0; i < n; i++) {
         const cJSON *s = cJSON_GetArrayItem(arr, i);
         sg_iface_socket *is = &(*out)[i];
@@ -178,10 +179,10 @@ static int parse_iface(const load_ctx *c, const cJSON *arr, const char *where,
         snprintf(w, sizeof w, "%s[%d]", where, i);
         const cJSON *name = cJSON_GetObjectItemCaseSensitive(s, "name");
         if (!cJSON_IsString(name) || !name->valuestring[0])
-            return sg_error_set(c->err, "%s: %s: missing \"name\"", c->source, w);
+            return sg_error_set(c->err, c->errlen, "%s: %s: missing \"name\"", c->source, w);
         for (int k = 0; k < i; k++)
             if (strcmp((*out)[k].name, name->valuestring) == 0)
-                return sg_error_set(c->err, "%s: %s: duplicate interface socket \"%s\"", c->source,
+                return sg_error_set(c->err, c->errlen, "%s: %s: duplicate interface socket \"%s\"", c->source,
                                     w, name->valuestring);
         is->name = dup_str(name->valuestring);
         char wt[640];
@@ -275,7 +276,7 @@ static void update_availability(sg_node *n)
 static int parse_ramp(const load_ctx *c, const cJSON *j, const char *where, sg_color_ramp *r)
 {
     if (!cJSON_IsObject(j))
-        return sg_error_set(c->err, "%s: %s.color_ramp: expected an object", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %s.color_ramp: expected an object", c->source, where);
     struct {
         const char *key;
         const char *const *values;
@@ -290,14 +291,14 @@ static int parse_ramp(const load_ctx *c, const cJSON *j, const char *where, sg_c
             continue;
         int idx = cJSON_IsString(v) ? enum_index(enums[k].values, v->valuestring) : -1;
         if (idx < 0)
-            return sg_error_set(c->err, "%s: %s.color_ramp.%s: invalid value", c->source, where,
+            return sg_error_set(c->err, c->errlen, "%s: %s.color_ramp.%s: invalid value", c->source, where,
                                 enums[k].key);
         *enums[k].dst = idx;
     }
     const cJSON *el = cJSON_GetObjectItemCaseSensitive(j, "elements");
     int n = cJSON_GetArraySize(el);
     if (!cJSON_IsArray(el) || n < 1 || n > SG_RAMP_MAX_ELEMENTS)
-        return sg_error_set(c->err, "%s: %s.color_ramp.elements: expected 1 to %d elements",
+        return sg_error_set(c->err, c->errlen, "%s: %s.color_ramp.elements: expected 1 to %d elements",
                             c->source, where, SG_RAMP_MAX_ELEMENTS);
     r->n = n;
     for (int i = 0; i < n; i++) {
@@ -307,7 +308,7 @@ static int parse_ramp(const load_ctx *c, const cJSON *j, const char *where, sg_c
         if (read_number(c, cJSON_GetObjectItemCaseSensitive(e, "position"), w, &r->position[i]) < 0)
             return -1;
         if (r->position[i] < 0.0f || r->position[i] > 1.0f)
-            return sg_error_set(c->err, "%s: %s: must be in [0, 1]", c->source, w);
+            return sg_error_set(c->err, c->errlen, "%s: %s: must be in [0, 1]", c->source, w);
         snprintf(w, sizeof w, "%s.color_ramp.elements[%d].color", where, i);
         if (read_value(c, cJSON_GetObjectItemCaseSensitive(e, "color"), SG_SOCKET_COLOR, w,
                        r->color[i]) < 0)
@@ -337,38 +338,38 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     tree_where(c->g, t, tw, sizeof tw);
     n->group = -1;
     if (!cJSON_IsObject(j))
-        return sg_error_set(c->err, "%s: %snodes[%d]: expected an object", c->source, tw, index);
+        return sg_error_set(c->err, c->errlen, "%s: %snodes[%d]: expected an object", c->source, tw, index);
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(j, "name");
     if (!cJSON_IsString(name) || !name->valuestring[0])
-        return sg_error_set(c->err, "%s: %snodes[%d]: missing \"name\"", c->source, tw, index);
+        return sg_error_set(c->err, c->errlen, "%s: %snodes[%d]: missing \"name\"", c->source, tw, index);
     snprintf(w, sizeof w, "%snodes[%d] \"%s\"", tw, index, name->valuestring);
     if (sg_tree_find_node(t, name->valuestring) >= 0)
-        return sg_error_set(c->err, "%s: %s: duplicate node name", c->source, w);
+        return sg_error_set(c->err, c->errlen, "%s: %s: duplicate node name", c->source, w);
     n->name = dup_str(name->valuestring);
 
     const cJSON *type = cJSON_GetObjectItemCaseSensitive(j, "type");
     if (!cJSON_IsString(type))
-        return sg_error_set(c->err, "%s: %s: missing \"type\"", c->source, w);
+        return sg_error_set(c->err, c->errlen, "%s: %s: missing \"type\"", c->source, w);
     n->type = sg_node_type_find(type->valuestring);
     if (!n->type)
-        return sg_error_set(c->err, "%s: %s: unknown node type \"%s\"", c->source, w,
+        return sg_error_set(c->err, c->errlen, "%s: %s: unknown node type \"%s\"", c->source, w,
                             type->valuestring);
     const char *id = n->type->idname;
     sg_node_role role = n->type->role;
     bool in_group = t != &c->g->main;
     if (!in_group && (role == SG_ROLE_GROUP_INPUT || role == SG_ROLE_GROUP_OUTPUT))
-        return sg_error_set(c->err, "%s: %s: %s is only allowed inside a group", c->source, w, id);
+        return sg_error_set(c->err, c->errlen, "%s: %s: %s is only allowed inside a group", c->source, w, id);
 
     const cJSON *label = cJSON_GetObjectItemCaseSensitive(j, "label");
     if (label) {
         if (!cJSON_IsString(label))
-            return sg_error_set(c->err, "%s: %s.label: expected a string", c->source, w);
+            return sg_error_set(c->err, c->errlen, "%s: %s.label: expected a string", c->source, w);
         n->label = dup_str(label->valuestring);
     }
     const cJSON *loc = cJSON_GetObjectItemCaseSensitive(j, "location");
     if (loc) {
         if (!cJSON_IsArray(loc) || cJSON_GetArraySize(loc) != 2)
-            return sg_error_set(c->err, "%s: %s.location: expected [x, y]", c->source, w);
+            return sg_error_set(c->err, c->errlen, "%s: %s.location: expected [x, y]", c->source, w);
         char lw[640];
         snprintf(lw, sizeof lw, "%s.location", w);
         if (read_number(c, cJSON_GetArrayItem(loc, 0), lw, &n->location[0]) < 0 ||
@@ -381,10 +382,10 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     if (role == SG_ROLE_GROUP) {
         const cJSON *gname = cJSON_GetObjectItemCaseSensitive(j, "group");
         if (!cJSON_IsString(gname))
-            return sg_error_set(c->err, "%s: %s: group node needs \"group\"", c->source, w);
+            return sg_error_set(c->err, c->errlen, "%s: %s: group node needs \"group\"", c->source, w);
         n->group = find_group(c->g, gname->valuestring);
         if (n->group < 0)
-            return sg_error_set(c->err, "%s: %s: unknown group \"%s\"", c->source, w,
+            return sg_error_set(c->err, c->errlen, "%s: %s: unknown group \"%s\"", c->source, w,
                                 gname->valuestring);
         const sg_tree *gt = &c->g->groups[n->group];
         rc = set_sockets_from_iface(n, gt->iface_in, gt->n_iface_in, gt->iface_out,
@@ -397,25 +398,25 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
         rc = set_sockets_from_type(n);
     }
     if (rc < 0)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
 
     /* Properties. */
     for (int p = 0; p < n->type->n_props; p++)
         n->prop[p] = n->type->props[p].default_value;
     const cJSON *props = cJSON_GetObjectItemCaseSensitive(j, "properties");
     if (props && !cJSON_IsObject(props))
-        return sg_error_set(c->err, "%s: %s.properties: expected an object", c->source, w);
+        return sg_error_set(c->err, c->errlen, "%s: %s.properties: expected an object", c->source, w);
     const cJSON *p;
     cJSON_ArrayForEach(p, props)
     {
         int k = sg_node_type_prop_index(n->type, p->string);
         const sg_prop_def *pd = k >= 0 ? &n->type->props[k] : NULL;
         if (!pd || pd->kind == SG_PROP_COLOR_RAMP)
-            return sg_error_set(c->err, "%s: %s.properties: %s has no property \"%s\"", c->source,
+            return sg_error_set(c->err, c->errlen, "%s: %s.properties: %s has no property \"%s\"", c->source,
                                 w, id, p->string);
         if (pd->kind == SG_PROP_BOOL) {
             if (!cJSON_IsBool(p))
-                return sg_error_set(c->err, "%s: %s.properties.%s: expected true or false",
+                return sg_error_set(c->err, c->errlen, "%s: %s.properties.%s: expected true or false",
                                     c->source, w, p->string);
             n->prop[k] = cJSON_IsTrue(p);
         } else if (pd->kind == SG_PROP_ENUM) {
@@ -426,14 +427,14 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
                     strncat(allowed, e ? ", " : "", sizeof allowed - strlen(allowed) - 1);
                     strncat(allowed, pd->values[e], sizeof allowed - strlen(allowed) - 1);
                 }
-                return sg_error_set(c->err, "%s: %s.properties.%s: invalid value %s%s%s (one of: %s)",
+                return sg_error_set(c->err, c->errlen, "%s: %s.properties.%s: invalid value %s%s%s (one of: %s)",
                                     c->source, w, p->string, cJSON_IsString(p) ? "\"" : "",
                                     cJSON_IsString(p) ? p->valuestring : "(not a string)",
                                     cJSON_IsString(p) ? "\"" : "", allowed);
             }
             n->prop[k] = v;
         } else {
-            return sg_error_set(c->err, "%s: %s.properties.%s: unsupported property kind",
+            return sg_error_set(c->err, c->errlen, "%s: %s.properties.%s: unsupported property kind",
                                 c->source, w, p->string);
         }
     }
@@ -442,14 +443,14 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     /* Input values. */
     const cJSON *ins = cJSON_GetObjectItemCaseSensitive(j, "inputs");
     if (ins && !cJSON_IsObject(ins))
-        return sg_error_set(c->err, "%s: %s.inputs: expected an object", c->source, w);
+        return sg_error_set(c->err, c->errlen, "%s: %s.inputs: expected an object", c->source, w);
     cJSON_ArrayForEach(p, ins)
     {
         int k = sg_node_input_index(n, p->string);
         char vw[700];
         snprintf(vw, sizeof vw, "%s.inputs.%s", w, p->string);
         if (k < 0)
-            return sg_error_set(c->err, "%s: %s: %s has no input socket \"%s\"", c->source, vw, id,
+            return sg_error_set(c->err, c->errlen, "%s: %s: %s has no input socket \"%s\"", c->source, vw, id,
                                 p->string);
         if (read_value(c, p, n->in[k].type, vw, n->in[k].value) < 0)
             return -1;
@@ -458,7 +459,7 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     const cJSON *outs = cJSON_GetObjectItemCaseSensitive(j, "outputs");
     bool value_node = role == SG_ROLE_CONSTANT;
     if (outs && (!value_node || !cJSON_IsObject(outs)))
-        return sg_error_set(c->err, "%s: %s.outputs: only Value and RGB nodes take an object of "
+        return sg_error_set(c->err, c->errlen, "%s: %s.outputs: only Value and RGB nodes take an object of "
                             "output values", c->source, w);
     cJSON_ArrayForEach(p, outs)
     {
@@ -466,7 +467,7 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
         char vw[700];
         snprintf(vw, sizeof vw, "%s.outputs.%s", w, p->string);
         if (k < 0)
-            return sg_error_set(c->err, "%s: %s: %s has no output socket \"%s\"", c->source, vw, id,
+            return sg_error_set(c->err, c->errlen, "%s: %s: %s has no output socket \"%s\"", c->source, vw, id,
                                 p->string);
         if (read_value(c, p, n->out[k].type, vw, n->out[k].value) < 0)
             return -1;
@@ -477,11 +478,11 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     for (int k = 0; k < n->type->n_props; k++)
         has_ramp |= n->type->props[k].kind == SG_PROP_COLOR_RAMP;
     if (ramp && !has_ramp)
-        return sg_error_set(c->err, "%s: %s: %s has no color_ramp", c->source, w, id);
+        return sg_error_set(c->err, c->errlen, "%s: %s: %s has no color_ramp", c->source, w, id);
     if (has_ramp) {
         n->ramp = calloc(1, sizeof *n->ramp);
         if (!n->ramp)
-            return sg_error_set(c->err, "%s: out of memory", c->source);
+            return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
         if (!ramp) { /* Blender's default ramp: black at 0, white at 1. */
             n->ramp->interpolation = 2;
             n->ramp->n = 2;
@@ -499,7 +500,7 @@ static int parse_node(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     cJSON_ArrayForEach(p, j)
     {
         if (enum_index(known, p->string) < 0)
-            return sg_error_set(c->err, "%s: %s: unknown key \"%s\"", c->source, w, p->string);
+            return sg_error_set(c->err, c->errlen, "%s: %s: unknown key \"%s\"", c->source, w, p->string);
     }
     return 0;
 }
@@ -521,38 +522,38 @@ static int parse_link(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     for (int k = 0; k < 4; k++) {
         const cJSON *s = cJSON_GetObjectItemCaseSensitive(j, keys[k]);
         if (!cJSON_IsString(s))
-            return sg_error_set(c->err, "%s: %s: missing \"%s\"", c->source, w, keys[k]);
+            return sg_error_set(c->err, c->errlen, "%s: %s: missing \"%s\"", c->source, w, keys[k]);
         v[k] = s->valuestring;
     }
     sg_link *l = &t->links[index];
     l->from_node = sg_tree_find_node(t, v[0]);
     l->to_node = sg_tree_find_node(t, v[2]);
     if (l->from_node < 0)
-        return sg_error_set(c->err, "%s: %s: no node named \"%s\"", c->source, w, v[0]);
+        return sg_error_set(c->err, c->errlen, "%s: %s: no node named \"%s\"", c->source, w, v[0]);
     if (l->to_node < 0)
-        return sg_error_set(c->err, "%s: %s: no node named \"%s\"", c->source, w, v[2]);
+        return sg_error_set(c->err, c->errlen, "%s: %s: no node named \"%s\"", c->source, w, v[2]);
     const sg_node *from = &t->nodes[l->from_node], *to = &t->nodes[l->to_node];
     l->from_socket = sg_node_output_index(from, v[1]);
     l->to_socket = sg_node_input_index(to, v[3]);
     if (l->from_socket < 0)
-        return sg_error_set(c->err, "%s: %s: node \"%s\" (%s) has no output socket \"%s\"",
+        return sg_error_set(c->err, c->errlen, "%s: %s: node \"%s\" (%s) has no output socket \"%s\"",
                             c->source, w, v[0], from->type->idname, v[1]);
     if (l->to_socket < 0)
-        return sg_error_set(c->err, "%s: %s: node \"%s\" (%s) has no input socket \"%s\"",
+        return sg_error_set(c->err, c->errlen, "%s: %s: node \"%s\" (%s) has no input socket \"%s\"",
                             c->source, w, v[2], to->type->idname, v[3]);
     if (!from->out[l->from_socket].available)
-        return sg_error_set(c->err, "%s: %s: output \"%s\" of \"%s\" is hidden for its settings",
+        return sg_error_set(c->err, c->errlen, "%s: %s: output \"%s\" of \"%s\" is hidden for its settings",
                             c->source, w, v[1], v[0]);
     if (!to->in[l->to_socket].available)
-        return sg_error_set(c->err, "%s: %s: input \"%s\" of \"%s\" is hidden for its settings",
+        return sg_error_set(c->err, c->errlen, "%s: %s: input \"%s\" of \"%s\" is hidden for its settings",
                             c->source, w, v[3], v[2]);
     for (int k = 0; k < index; k++)
         if (t->links[k].to_node == l->to_node && t->links[k].to_socket == l->to_socket)
-            return sg_error_set(c->err, "%s: %s: input \"%s\" of \"%s\" already has a link (%slinks[%d])",
+            return sg_error_set(c->err, c->errlen, "%s: %s: input \"%s\" of \"%s\" already has a link (%slinks[%d])",
                                 c->source, w, v[3], v[2], tw, k);
     bool reroute = from->type->role == SG_ROLE_REROUTE || to->type->role == SG_ROLE_REROUTE;
     if (!reroute && !types_linkable(from->out[l->from_socket].type, to->in[l->to_socket].type))
-        return sg_error_set(c->err, "%s: %s: cannot link %s socket \"%s\" to %s socket \"%s\"",
+        return sg_error_set(c->err, c->errlen, "%s: %s: cannot link %s socket \"%s\" to %s socket \"%s\"",
                             c->source, w, sg_socket_type_name(from->out[l->from_socket].type), v[1],
                             sg_socket_type_name(to->in[l->to_socket].type), v[3]);
     static const char *const known[] = {"from_node", "from_socket", "to_node", "to_socket", NULL};
@@ -560,7 +561,7 @@ static int parse_link(const load_ctx *c, sg_tree *t, const cJSON *j, int index)
     cJSON_ArrayForEach(p, j)
     {
         if (enum_index(known, p->string) < 0)
-            return sg_error_set(c->err, "%s: %s: unknown key \"%s\"", c->source, w, p->string);
+            return sg_error_set(c->err, c->errlen, "%s: %s: unknown key \"%s\"", c->source, w, p->string);
     }
     return 0;
 }
@@ -588,7 +589,7 @@ static int resolve_reroutes(const load_ctx *c, sg_tree *t)
             }
             cur = t->links[l].from_node;
             if (++hops > t->n_nodes)
-                return sg_error_set(c->err, "%s: %snodes \"%s\": reroutes form a cycle", c->source,
+                return sg_error_set(c->err, c->errlen, "%s: %snodes \"%s\": reroutes form a cycle", c->source,
                                     tw, n->name);
         }
         n->in[0].type = n->out[0].type = type;
@@ -598,7 +599,7 @@ static int resolve_reroutes(const load_ctx *c, sg_tree *t)
         sg_socket_type a = t->nodes[l->from_node].out[l->from_socket].type;
         sg_socket_type b = t->nodes[l->to_node].in[l->to_socket].type;
         if (!types_linkable(a, b))
-            return sg_error_set(c->err, "%s: %slinks[%d]: cannot link %s to %s (through reroutes)",
+            return sg_error_set(c->err, c->errlen, "%s: %slinks[%d]: cannot link %s to %s (through reroutes)",
                                 c->source, tw, k, sg_socket_type_name(a), sg_socket_type_name(b));
     }
     return 0;
@@ -628,7 +629,7 @@ static int check_cycles(const load_ctx *c, const sg_tree *t)
 {
     unsigned char *colour = calloc((size_t)t->n_nodes + 1, 1);
     if (!colour)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
     int bad = -1;
     for (int i = 0; i < t->n_nodes && bad < 0; i++)
         if (!colour[i])
@@ -637,7 +638,7 @@ static int check_cycles(const load_ctx *c, const sg_tree *t)
     if (bad >= 0) {
         char tw[300];
         tree_where(c->g, t, tw, sizeof tw);
-        return sg_error_set(c->err, "%s: %snodes: the links form a cycle through \"%s\"", c->source,
+        return sg_error_set(c->err, c->errlen, "%s: %snodes: the links form a cycle through \"%s\"", c->source,
                             tw, t->nodes[bad].name);
     }
     return 0;
@@ -667,20 +668,20 @@ static int parse_tree(const load_ctx *c, sg_tree *t, const cJSON *j, const char 
     const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(j, "nodes");
     const cJSON *links = cJSON_GetObjectItemCaseSensitive(j, "links");
     if (!cJSON_IsArray(nodes))
-        return sg_error_set(c->err, "%s: %snodes: missing or not an array", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %snodes: missing or not an array", c->source, where);
     if (!cJSON_IsArray(links))
-        return sg_error_set(c->err, "%s: %slinks: missing or not an array", c->source, where);
+        return sg_error_set(c->err, c->errlen, "%s: %slinks: missing or not an array", c->source, where);
     int nn = cJSON_GetArraySize(nodes), nl = cJSON_GetArraySize(links);
     if (nn > SG_MAX_TREE_NODES)
-        return sg_error_set(c->err, "%s: %snodes: %d nodes, more than the %d a tree may have",
+        return sg_error_set(c->err, c->errlen, "%s: %snodes: %d nodes, more than the %d a tree may have",
                             c->source, where, nn, SG_MAX_TREE_NODES);
     if (nl > SG_MAX_TREE_LINKS)
-        return sg_error_set(c->err, "%s: %slinks: %d links, more than the %d a tree may have",
+        return sg_error_set(c->err, c->errlen, "%s: %slinks: %d links, more than the %d a tree may have",
                             c->source, where, nl, SG_MAX_TREE_LINKS);
     t->nodes = calloc((size_t)nn + 1, sizeof *t->nodes);
     t->links = calloc((size_t)nl + 1, sizeof *t->links);
     if (!t->nodes || !t->links)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
     /* Walked as lists: cJSON_GetArrayItem(i) starts from the head each time. */
     const cJSON *item = nodes->child;
     for (int i = 0; i < nn; i++, item = item->next) {
@@ -705,29 +706,29 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
 {
     sg_graph *g = c->g;
     if (!cJSON_IsObject(root))
-        return sg_error_set(c->err, "%s: top level: expected an object", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: top level: expected an object", c->source);
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(root, "format");
     if (!cJSON_IsString(fmt))
-        return sg_error_set(c->err, "%s: format: missing (expected \"%s\")", c->source, FORMAT_ID);
+        return sg_error_set(c->err, c->errlen, "%s: format: missing (expected \"%s\")", c->source, FORMAT_ID);
     if (strcmp(fmt->valuestring, FORMAT_ID) != 0)
-        return sg_error_set(c->err, "%s: format: \"%s\" is not supported (expected \"%s\")",
+        return sg_error_set(c->err, c->errlen, "%s: format: \"%s\" is not supported (expected \"%s\")",
                             c->source, fmt->valuestring, FORMAT_ID);
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(root, "name");
     if (name && !cJSON_IsString(name))
-        return sg_error_set(c->err, "%s: name: expected a string", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: name: expected a string", c->source);
     g->name = dup_str(name ? name->valuestring : "Material");
     g->main.name = dup_str(g->name);
 
     const cJSON *groups = cJSON_GetObjectItemCaseSensitive(root, "groups");
     if (groups && !cJSON_IsObject(groups))
-        return sg_error_set(c->err, "%s: groups: expected an object", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: groups: expected an object", c->source);
     int ng = cJSON_GetArraySize(groups);
     if (ng > SG_MAX_GROUPS)
-        return sg_error_set(c->err, "%s: groups: %d groups, more than the %d a graph may have",
+        return sg_error_set(c->err, c->errlen, "%s: groups: %d groups, more than the %d a graph may have",
                             c->source, ng, SG_MAX_GROUPS);
     g->groups = calloc((size_t)ng + 1, sizeof *g->groups);
     if (!g->groups)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
     /* Pass 1: names and interfaces, so group nodes anywhere can refer to any group. */
     const cJSON *gj;
     int gi = 0;
@@ -737,10 +738,10 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
         g->n_groups = gi + 1;
         t->name = dup_str(gj->string);
         if (find_group(g, gj->string) != gi)
-            return sg_error_set(c->err, "%s: groups.\"%s\": duplicate group name", c->source,
+            return sg_error_set(c->err, c->errlen, "%s: groups.\"%s\": duplicate group name", c->source,
                                 gj->string);
         if (!cJSON_IsObject(gj))
-            return sg_error_set(c->err, "%s: groups.\"%s\": expected an object", c->source,
+            return sg_error_set(c->err, c->errlen, "%s: groups.\"%s\": expected an object", c->source,
                                 gj->string);
         char w[400];
         snprintf(w, sizeof w, "groups.\"%s\".inputs", gj->string);
@@ -767,12 +768,12 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
         return -1;
     unsigned char *state = calloc((size_t)ng + 1, 1);
     if (!state)
-        return sg_error_set(c->err, "%s: out of memory", c->source);
+        return sg_error_set(c->err, c->errlen, "%s: out of memory", c->source);
     for (int i = 0; i < ng; i++) {
         int r = group_recursion(g, i, state);
         if (r >= 0) {
             free(state);
-            return sg_error_set(c->err, "%s: groups.\"%s\": the group contains itself", c->source,
+            return sg_error_set(c->err, c->errlen, "%s: groups.\"%s\": the group contains itself", c->source,
                                 g->groups[r].name);
         }
     }
@@ -781,14 +782,14 @@ static int parse_graph(const load_ctx *c, const cJSON *root)
     for (int i = 0; i < g->main.n_nodes; i++)
         has_output |= g->main.nodes[i].type->role == SG_ROLE_MATERIAL_OUTPUT;
     if (!has_output)
-        return sg_error_set(c->err, "%s: nodes: no Material Output node (ShaderNodeOutputMaterial)",
+        return sg_error_set(c->err, c->errlen, "%s: nodes: no Material Output node (ShaderNodeOutputMaterial)",
                             c->source);
     static const char *const known[] = {"format", "name", "nodes", "links", "groups", NULL};
     const cJSON *p;
     cJSON_ArrayForEach(p, root)
     {
         if (enum_index(known, p->string) < 0)
-            return sg_error_set(c->err, "%s: top level: unknown key \"%s\"", c->source, p->string);
+            return sg_error_set(c->err, c->errlen, "%s: top level: unknown key \"%s\"", c->source, p->string);
     }
     return 0;
 }
@@ -808,16 +809,16 @@ static void line_col(const char *text, size_t pos, int *line, int *col)
     }
 }
 
-sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_name, sg_error *err)
+sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_name, char *err, size_t errlen)
 {
-    load_ctx c = {source_name ? source_name : "<graph>", err, NULL};
+    load_ctx c = {source_name ? source_name : "<graph>", err, errlen, NULL};
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(text, len, &end, false);
     if (!root) {
         int line, col;
         size_t pos = end && end >= text ? (size_t)(end - text) : 0;
         line_col(text, pos < len ? pos : len, &line, &col);
-        sg_error_set(err, "%s:%d:%d: invalid JSON", c.source, line, col);
+        sg_error_set(err, errlen, "%s:%d:%d: invalid JSON", c.source, line, col);
         return NULL;
     }
     /* Trailing non-space garbage is an error too. */
@@ -829,14 +830,14 @@ sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_na
             int line, col;
             line_col(text, (size_t)(end - text), &line, &col);
             cJSON_Delete(root);
-            sg_error_set(err, "%s:%d:%d: unexpected text after the JSON value", c.source, line, col);
+            sg_error_set(err, errlen, "%s:%d:%d: unexpected text after the JSON value", c.source, line, col);
             return NULL;
         }
     }
     c.g = calloc(1, sizeof *c.g);
     if (!c.g) {
         cJSON_Delete(root);
-        sg_error_set(err, "%s: out of memory", c.source);
+        sg_error_set(err, errlen, "%s: out of memory", c.source);
         return NULL;
     }
     int rc = parse_graph(&c, root);
@@ -848,11 +849,11 @@ sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_na
     return c.g;
 }
 
-sg_graph *sg_graph_load_file(const char *path, sg_error *err)
+sg_graph *sg_graph_load_file(const char *path, char *err, size_t errlen)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        sg_error_set(err, "%s: cannot open: %s", path, strerror(errno));
+        sg_error_set(err, errlen, "%s: cannot open: %s", path, strerror(errno));
         return NULL;
     }
     /* Read up to one byte past the limit, whatever the file claims to be (a pipe, or a
@@ -883,23 +884,23 @@ sg_graph *sg_graph_load_file(const char *path, sg_error *err)
     fclose(f);
     if (too_large) {
         free(buf);
-        sg_error_set(err, "%s: larger than the %u bytes a graph file may have", path,
+        sg_error_set(err, errlen, "%s: larger than the %u bytes a graph file may have", path,
                      SG_MAX_GRAPH_FILE_BYTES);
         return NULL;
     }
     if (!buf || read_error) {
         free(buf);
-        sg_error_set(err, "%s: %s", path, buf ? "read error" : "out of memory");
+        sg_error_set(err, errlen, "%s: %s", path, buf ? "read error" : "out of memory");
         return NULL;
     }
-    sg_graph *g = sg_graph_load_json(buf, len, path, err);
+    sg_graph *g = sg_graph_load_json(buf, len, path, err, errlen);
     free(buf);
     return g;
 }
 
 /* ---- queries ---------------------------------------------------------------------- */
 
-const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
+const char *sg_graph_surface_bsdf(const sg_graph *g, char *err, size_t errlen)
 {
     const sg_tree *t = &g->main;
     int out = -1;
@@ -915,14 +916,14 @@ const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
             break;
     }
     if (out < 0) {
-        sg_error_set(err, "%s: no Material Output", g->name);
+        sg_error_set(err, errlen, "%s: no Material Output", g->name);
         return NULL;
     }
     int node = out, socket = sg_node_input_index(&t->nodes[out], "Surface");
     for (int hops = 0; hops <= t->n_nodes; hops++) {
         int l = sg_tree_input_link(t, node, socket);
         if (l < 0) {
-            sg_error_set(err, "%s: nothing is linked to the Material Output's Surface", g->name);
+            sg_error_set(err, errlen, "%s: nothing is linked to the Material Output's Surface", g->name);
             return NULL;
         }
         const sg_node *from = &t->nodes[t->links[l].from_node];
@@ -932,13 +933,13 @@ const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err)
             continue;
         }
         if (from->type->role != SG_ROLE_BSDF) {
-            sg_error_set(err, "%s: the Surface shader is \"%s\" (%s); only a Principled BSDF "
+            sg_error_set(err, errlen, "%s: the Surface shader is \"%s\" (%s); only a Principled BSDF "
                          "can be rendered", g->name, from->name, from->type->idname);
             return NULL;
         }
         return from->name;
     }
-    sg_error_set(err, "%s: reroutes form a cycle", g->name);
+    sg_error_set(err, errlen, "%s: reroutes form a cycle", g->name);
     return NULL;
 }
 
@@ -1138,28 +1139,28 @@ char *sg_graph_to_json(const sg_graph *g)
     return text;
 }
 
-int sg_graph_save_file(const sg_graph *g, const char *path, sg_error *err)
+int sg_graph_save_file(const sg_graph *g, const char *path, char *err, size_t errlen)
 {
     char *text = sg_graph_to_json(g);
     if (!text)
-        return sg_error_set(err, "%s: out of memory", path);
+        return sg_error_set(err, errlen, "%s: out of memory", path);
     size_t n = strlen(path) + 32;
     char *tmp = malloc(n);
     if (!tmp) {
         free(text);
-        return sg_error_set(err, "%s: out of memory", path);
+        return sg_error_set(err, errlen, "%s: out of memory", path);
     }
     snprintf(tmp, n, "%s.tmp.%ld", path, (long)getpid());
     FILE *f = fopen(tmp, "wb");
     int rc = 0;
     if (!f) {
-        rc = sg_error_set(err, "%s: cannot write: %s", path, strerror(errno));
+        rc = sg_error_set(err, errlen, "%s: cannot write: %s", path, strerror(errno));
     } else {
         size_t len = strlen(text);
         bool ok = fwrite(text, 1, len, f) == len && fputc('\n', f) != EOF;
         ok = (fclose(f) == 0) && ok;
         if (!ok || rename(tmp, path) != 0) {
-            rc = sg_error_set(err, "%s: cannot write: %s", path, strerror(errno));
+            rc = sg_error_set(err, errlen, "%s: cannot write: %s", path, strerror(errno));
             remove(tmp);
         }
     }

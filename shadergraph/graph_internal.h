@@ -78,6 +78,6 @@ int sg_node_output_index(const sg_node *n, const char *identifier);
  * fold_constants = false: inlined and resolved only (sg_compile_options.unfolded). */
 sg_graph *sg_fold_for_compile(const sg_graph *g, sg_blender_mode mode, bool fold_constants,
                               const sg_socket_ref *refs, int n_refs, sg_socket_ref *resolved,
-                              sg_socket_type *types, sg_error *err);
+                              sg_socket_type *types, char *err, size_t errlen);
 
 #endif

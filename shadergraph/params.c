@@ -47,22 +47,22 @@ static int value_node_of_output(const sg_tree *t, int k)
 }
 
 /* Checks the group's shape; returns its index or -1 with err set. */
-static int params_group(const sg_graph *g, sg_error *err)
+static int params_group(const sg_graph *g, char *err, size_t errlen)
 {
     int gi = find_params_group(g);
     if (gi < 0)
-        return sg_error_set(err, "graph \"%s\": no parameter group \"%s\"", g->name,
+        return sg_error_set(err, errlen, "graph \"%s\": no parameter group \"%s\"", g->name,
                             SG_PARAMS_GROUP);
     const sg_tree *t = &g->groups[gi];
     if (t->n_iface_in)
-        return sg_error_set(err, "group \"%s\": a parameter group has no inputs (found %d)",
+        return sg_error_set(err, errlen, "group \"%s\": a parameter group has no inputs (found %d)",
                             t->name, t->n_iface_in);
     for (int k = 0; k < t->n_iface_out; k++) {
         if (t->iface_out[k].type != SG_SOCKET_FLOAT)
-            return sg_error_set(err, "group \"%s\": output \"%s\" is not FLOAT", t->name,
+            return sg_error_set(err, errlen, "group \"%s\": output \"%s\" is not FLOAT", t->name,
                                 t->iface_out[k].name);
         if (value_node_of_output(t, k) < 0)
-            return sg_error_set(err, "group \"%s\": output \"%s\" is not fed by a Value node",
+            return sg_error_set(err, errlen, "group \"%s\": output \"%s\" is not fed by a Value node",
                                 t->name, t->iface_out[k].name);
     }
     return gi;
@@ -93,20 +93,20 @@ static int params_alloc(sg_params *p, int n)
     return 0;
 }
 
-int sg_params_from_graph(const sg_graph *g, sg_params *out, sg_error *err)
+int sg_params_from_graph(const sg_graph *g, sg_params *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
-    int gi = params_group(g, err);
+    int gi = params_group(g, err, errlen);
     if (gi < 0)
         return -1;
     const sg_tree *t = &g->groups[gi];
     if (params_alloc(out, t->n_iface_out) < 0)
-        return sg_error_set(err, "out of memory");
+        return sg_error_set(err, errlen, "out of memory");
     for (int k = 0; k < t->n_iface_out; k++) {
         out->names[k] = strdup(t->iface_out[k].name);
         if (!out->names[k]) {
             sg_params_free(out);
-            return sg_error_set(err, "out of memory");
+            return sg_error_set(err, errlen, "out of memory");
         }
         out->values[k] = t->nodes[value_node_of_output(t, k)].out[0].value[0];
     }
@@ -184,7 +184,7 @@ void sg_params_sample(sg_params *p, unsigned long long frame)
 /* ---- files ---------------------------------------------------------------------- */
 
 int sg_params_read_json(const char *text, size_t len, const char *source_name, sg_params *p,
-                        sg_error *err)
+                        char *err, size_t errlen)
 {
     const char *src = source_name ? source_name : "<params>";
     const char *end = NULL;
@@ -199,48 +199,48 @@ int sg_params_read_json(const char *text, size_t len, const char *source_name, s
             } else
                 col++;
         }
-        return sg_error_set(err, "%s:%d:%d: invalid JSON", src, line, col);
+        return sg_error_set(err, errlen, "%s:%d:%d: invalid JSON", src, line, col);
     }
     int rc = -1;
     float *vals = malloc(sizeof(float) * (size_t)(p->n ? p->n : 1));
     char *seen = calloc((size_t)(p->n ? p->n : 1), 1);
     if (!vals || !seen) {
-        sg_error_set(err, "%s: out of memory", src);
+        sg_error_set(err, errlen, "%s: out of memory", src);
         goto done;
     }
     if (!cJSON_IsObject(root)) {
-        sg_error_set(err, "%s: expected a JSON object keyed by parameter name", src);
+        sg_error_set(err, errlen, "%s: expected a JSON object keyed by parameter name", src);
         goto done;
     }
     for (const cJSON *it = root->child; it; it = it->next) {
         int k = sg_params_index(p, it->string);
         if (k < 0) {
-            sg_error_set(err, "%s: \"%s\": not a parameter of the graph", src, it->string);
+            sg_error_set(err, errlen, "%s: \"%s\": not a parameter of the graph", src, it->string);
             goto done;
         }
         if (seen[k]) {
-            sg_error_set(err, "%s: \"%s\": given twice", src, it->string);
+            sg_error_set(err, errlen, "%s: \"%s\": given twice", src, it->string);
             goto done;
         }
         seen[k] = 1;
         if (!cJSON_IsNumber(it)) {
-            sg_error_set(err, "%s: \"%s\": expected a number", src, it->string);
+            sg_error_set(err, errlen, "%s: \"%s\": expected a number", src, it->string);
             goto done;
         }
         double v = it->valuedouble;
         if (!isfinite(v)) {
-            sg_error_set(err, "%s: \"%s\": value is not finite", src, it->string);
+            sg_error_set(err, errlen, "%s: \"%s\": value is not finite", src, it->string);
             goto done;
         }
         if (v < 0.0 || v > 1.0) {
-            sg_error_set(err, "%s: \"%s\": %g is outside [0, 1]", src, it->string, v);
+            sg_error_set(err, errlen, "%s: \"%s\": %g is outside [0, 1]", src, it->string, v);
             goto done;
         }
         vals[k] = (float)v;
     }
     for (int k = 0; k < p->n; k++) {
         if (!seen[k]) {
-            sg_error_set(err, "%s: \"%s\": missing", src, p->names[k]);
+            sg_error_set(err, errlen, "%s: \"%s\": missing", src, p->names[k]);
             goto done;
         }
     }
@@ -253,11 +253,11 @@ done:
     return rc;
 }
 
-int sg_params_read_file(const char *path, sg_params *p, sg_error *err)
+int sg_params_read_file(const char *path, sg_params *p, char *err, size_t errlen)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
-        return sg_error_set(err, "%s: %s", path, strerror(errno));
+        return sg_error_set(err, errlen, "%s: %s", path, strerror(errno));
     char *buf = NULL;
     size_t len = 0, cap = 0;
     for (;;) {
@@ -267,7 +267,7 @@ int sg_params_read_file(const char *path, sg_params *p, sg_error *err)
             if (!nb) {
                 free(buf);
                 fclose(f);
-                return sg_error_set(err, "%s: out of memory", path);
+                return sg_error_set(err, errlen, "%s: out of memory", path);
             }
             buf = nb;
         }
@@ -280,10 +280,10 @@ int sg_params_read_file(const char *path, sg_params *p, sg_error *err)
     fclose(f);
     if (bad) {
         free(buf);
-        return sg_error_set(err, "%s: read error", path);
+        return sg_error_set(err, errlen, "%s: read error", path);
     }
     buf[len] = '\0';
-    int rc = sg_params_read_json(buf, len, path, p, err);
+    int rc = sg_params_read_json(buf, len, path, p, err, errlen);
     free(buf);
     return rc;
 }
@@ -343,22 +343,22 @@ char *sg_params_to_json(const sg_params *p)
     return s;
 }
 
-int sg_params_write_file(const char *path, const sg_params *p, sg_error *err)
+int sg_params_write_file(const char *path, const sg_params *p, char *err, size_t errlen)
 {
     char *text = sg_params_to_json(p);
     if (!text)
-        return sg_error_set(err, "%s: out of memory", path);
+        return sg_error_set(err, errlen, "%s: out of memory", path);
     size_t plen = strlen(path);
     char *tmp = malloc(plen + 16);
     if (!tmp) {
         free(text);
-        return sg_error_set(err, "%s: out of memory", path);
+        return sg_error_set(err, errlen, "%s: out of memory", path);
     }
     snprintf(tmp, plen + 16, "%s.tmpXXXXXX", path);
     int fd = mkstemp(tmp);
     int rc = 0;
     if (fd < 0) {
-        rc = sg_error_set(err, "%s: cannot create a temporary file: %s", path, strerror(errno));
+        rc = sg_error_set(err, errlen, "%s: cannot create a temporary file: %s", path, strerror(errno));
     } else {
         FILE *f = fdopen(fd, "wb");
         size_t n = strlen(text);
@@ -371,9 +371,9 @@ int sg_params_write_file(const char *path, const sg_params *p, sg_error *err)
         } else if (fclose(f) != 0)
             rc = -1;
         if (rc < 0)
-            sg_error_set(err, "%s: write error: %s", path, strerror(errno));
+            sg_error_set(err, errlen, "%s: write error: %s", path, strerror(errno));
         else if (rename(tmp, path) != 0)
-            rc = sg_error_set(err, "%s: cannot rename the temporary file: %s", path,
+            rc = sg_error_set(err, errlen, "%s: cannot rename the temporary file: %s", path,
                               strerror(errno));
         if (rc < 0)
             unlink(tmp);
@@ -385,9 +385,9 @@ int sg_params_write_file(const char *path, const sg_params *p, sg_error *err)
 
 /* ---- binding -------------------------------------------------------------------- */
 
-int sg_graph_bind_params(sg_graph *g, const sg_params *p, sg_error *err)
+int sg_graph_bind_params(sg_graph *g, const sg_params *p, char *err, size_t errlen)
 {
-    int gi = params_group(g, err);
+    int gi = params_group(g, err, errlen);
     if (gi < 0)
         return -1;
     sg_tree *t = &g->groups[gi];
@@ -398,15 +398,15 @@ int sg_graph_bind_params(sg_graph *g, const sg_params *p, sg_error *err)
             if (!strcmp(t->iface_out[k].name, p->names[i]))
                 break;
         if (k == t->n_iface_out)
-            return sg_error_set(err, "parameter \"%s\": not a parameter of the graph",
+            return sg_error_set(err, errlen, "parameter \"%s\": not a parameter of the graph",
                                 p->names[i]);
         if (!(p->values[i] >= 0.0f && p->values[i] <= 1.0f))
-            return sg_error_set(err, "parameter \"%s\": %g is outside [0, 1]", p->names[i],
+            return sg_error_set(err, errlen, "parameter \"%s\": %g is outside [0, 1]", p->names[i],
                                 (double)p->values[i]);
     }
     for (int k = 0; k < t->n_iface_out; k++)
         if (sg_params_index(p, t->iface_out[k].name) < 0)
-            return sg_error_set(err, "parameter \"%s\": missing", t->iface_out[k].name);
+            return sg_error_set(err, errlen, "parameter \"%s\": missing", t->iface_out[k].name);
     for (int k = 0; k < t->n_iface_out; k++) {
         float v = p->values[sg_params_index(p, t->iface_out[k].name)];
         t->nodes[value_node_of_output(t, k)].out[0].value[0] = v;

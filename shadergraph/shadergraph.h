@@ -25,16 +25,16 @@ extern "C" {
 
 /* ---- errors ---------------------------------------------------------------------- */
 
-/* Every fallible call fills one of these. `msg` names the file (or source name) and the
- * place: "material.json: nodes[3] \"Math.001\": unknown operation \"ADDD\"". */
-typedef struct sg_error {
-    char msg[512];
-} sg_error;
+/* Every fallible call takes (char *err, size_t errlen), as every library of imsynth does,
+ * and writes a message naming the file (or source name) and the place into it:
+ * "material.json: nodes[3] \"Math.001\": unknown operation \"ADDD\"". err may be NULL.
+ * SG_ERROR_MAX holds any message this library writes. */
+enum { SG_ERROR_MAX = 512 };
 
 /* Writes a formatted message into err (if err is not NULL). Returns -1 for chaining. */
-int sg_error_set(sg_error *err, const char *fmt, ...)
+int sg_error_set(char *err, size_t errlen, const char *fmt, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 2, 3)))
+    __attribute__((format(printf, 3, 4)))
 #endif
     ;
 
@@ -80,22 +80,22 @@ typedef struct sg_graph sg_graph;
 
 /* Load and validate. On failure returns NULL and explains in err. `source_name` is used
  * in messages (usually the file path). */
-sg_graph *sg_graph_load_file(const char *path, sg_error *err);
+sg_graph *sg_graph_load_file(const char *path, char *err, size_t errlen);
 sg_graph *sg_graph_load_json(const char *text, size_t len, const char *source_name,
-                             sg_error *err);
+                             char *err, size_t errlen);
 
 /* Serialise to JSON text (caller frees with free()). Saving and loading round-trips
  * losslessly: load(save(g)) saves to the same text. */
 char *sg_graph_to_json(const sg_graph *g);
 /* Write atomically: temp file in the same directory, then rename. */
-int sg_graph_save_file(const sg_graph *g, const char *path, sg_error *err);
+int sg_graph_save_file(const sg_graph *g, const char *path, char *err, size_t errlen);
 
 void sg_graph_free(sg_graph *g);
 
 /* The name of the Principled BSDF node feeding the active Material Output's Surface
  * (through reroutes), which is where a renderer reads the material's maps. NULL with a
  * message when there is none (an unlinked Surface, another shader, a group). */
-const char *sg_graph_surface_bsdf(const sg_graph *g, sg_error *err);
+const char *sg_graph_surface_bsdf(const sg_graph *g, char *err, size_t errlen);
 
 /* ---- compiling ------------------------------------------------------------------- */
 
@@ -110,7 +110,7 @@ typedef struct sg_socket_ref {
 
 /* Parses "NODE:SOCKET" (the last ':' splits, so node names may contain ':').
  * Points into `text`, which must outlive the ref; writes a NUL over the ':'. */
-int sg_socket_ref_parse(char *text, sg_socket_ref *ref, sg_error *err);
+int sg_socket_ref_parse(char *text, sg_socket_ref *ref, char *err, size_t errlen);
 
 typedef struct sg_compile_options {
     sg_blender_mode blender; /* 0 means SG_BLENDER_4 */
@@ -125,7 +125,7 @@ typedef struct sg_program sg_program;
 /* Inline groups, drop nodes that do not reach the requested sockets, and order the rest
  * into a flat instruction list. The program does not reference the graph afterwards. */
 sg_program *sg_compile(const sg_graph *g, const sg_socket_ref *refs, int n_refs,
-                       const sg_compile_options *opt, sg_error *err);
+                       const sg_compile_options *opt, char *err, size_t errlen);
 void sg_program_free(sg_program *p);
 
 /* Type of requested output k (its width is the number of floats per point). */
@@ -176,7 +176,7 @@ typedef struct sg_extract_options {
  * (bind parameters first): groups inlined, constants folded, identities bypassed,
  * duplicates merged, dead nodes removed, laid out in columns. Returns a new graph
  * without groups (free with sg_graph_free), or NULL with a message. */
-sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, sg_error *err);
+sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, char *err, size_t errlen);
 
 /* Nodes as Blender shows them with every group expanded in place: a group node counts
  * as its group's nodes (recursively), not as one. Saturates at INT_MAX; -1 when out of
@@ -210,7 +210,7 @@ typedef struct sg_params {
 /* The parameters of g (names and current values) from its SG_PARAMS_GROUP group.
  * Errors when the group is missing, has inputs, or an output is not fed by a Value
  * node. On success the caller frees with sg_params_free. */
-int sg_params_from_graph(const sg_graph *g, sg_params *out, sg_error *err);
+int sg_params_from_graph(const sg_graph *g, sg_params *out, char *err, size_t errlen);
 /* A deep copy (names and values); returns -1 when out of memory. */
 int sg_params_copy(const sg_params *src, sg_params *dst);
 void sg_params_free(sg_params *p);
@@ -233,18 +233,18 @@ void sg_params_sample(sg_params *p, unsigned long long frame);
  * Reading fills p->values for the names already in p (from the graph); a missing,
  * unknown, duplicated, non-number, non-finite or out-of-range entry is an error naming
  * the file and the parameter. On error p->values is left unchanged. */
-int sg_params_read_file(const char *path, sg_params *p, sg_error *err);
+int sg_params_read_file(const char *path, sg_params *p, char *err, size_t errlen);
 int sg_params_read_json(const char *text, size_t len, const char *source_name, sg_params *p,
-                        sg_error *err);
+                        char *err, size_t errlen);
 /* JSON text in the same format, in p's order (caller frees with free()); each value in
  * the shortest form that reads back as the same float. */
 char *sg_params_to_json(const sg_params *p);
 /* Write atomically (temp file in the same directory, then rename). */
-int sg_params_write_file(const char *path, const sg_params *p, sg_error *err);
+int sg_params_write_file(const char *path, const sg_params *p, char *err, size_t errlen);
 
 /* Set g's parameters to p's values (matched by name: every parameter of g must be in p
  * and every entry of p must be a parameter of g; values in [0, 1]). */
-int sg_graph_bind_params(sg_graph *g, const sg_params *p, sg_error *err);
+int sg_graph_bind_params(sg_graph *g, const sg_params *p, char *err, size_t errlen);
 
 #ifdef __cplusplus
 }

@@ -47,16 +47,16 @@ int main(int argc, char **argv)
 {
     const char *path = argc > 1 ? argv[1] : IMSYNTH_SOURCE_DIR "/tests/bench/eval_graph.json";
     double seconds = argc > 2 ? atof(argv[2]) : 3.0;
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(path, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(path, err, sizeof err);
     if (!g) {
-        fprintf(stderr, "%s\n", err.msg);
+        fprintf(stderr, "%s\n", err);
         return 1;
     }
     sg_socket_ref refs[2] = {{"Principled BSDF", "Base Color"}, {"Principled BSDF", "Roughness"}};
-    sg_program *p = sg_compile(g, refs, 2, NULL, &err);
+    sg_program *p = sg_compile(g, refs, 2, NULL, err, sizeof err);
     if (!p) {
-        fprintf(stderr, "%s\n", err.msg);
+        fprintf(stderr, "%s\n", err);
         return 1;
     }
     sg_evaluator *e = sg_evaluator_new(p, BATCH);

@@ -31,11 +31,11 @@ int main(int argc, char **argv)
     const char *path = argc > 2 ? argv[2] : IMSYNTH_SOURCE_DIR "/assets/supershader.json";
     if (count < 1)
         count = 1;
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(path, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(path, err, sizeof err);
     sg_params p;
-    if (!g || sg_params_from_graph(g, &p, &err) < 0) {
-        fprintf(stderr, "%s\n", err.msg);
+    if (!g || sg_params_from_graph(g, &p, err, sizeof err) < 0) {
+        fprintf(stderr, "%s\n", err);
         return 1;
     }
     int *nodes = malloc(sizeof(int) * (size_t)count);
@@ -43,14 +43,14 @@ int main(int argc, char **argv)
     for (int s = 0; s < count; s++) {
         sg_params_sample(&p, (unsigned long long)s);
         double t0 = now();
-        if (sg_graph_bind_params(g, &p, &err) < 0) {
-            fprintf(stderr, "%s\n", err.msg);
+        if (sg_graph_bind_params(g, &p, err, sizeof err) < 0) {
+            fprintf(stderr, "%s\n", err);
             return 1;
         }
-        sg_graph *x = sg_extract(g, NULL, &err);
+        sg_graph *x = sg_extract(g, NULL, err, sizeof err);
         ms[s] = 1e3 * (now() - t0);
         if (!x) {
-            fprintf(stderr, "seed %d: %s\n", s, err.msg);
+            fprintf(stderr, "seed %d: %s\n", s, err);
             return 1;
         }
         nodes[s] = sg_graph_node_count(x);

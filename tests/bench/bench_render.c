@@ -111,8 +111,8 @@ int main(int argc, char **argv)
         snprintf(pb, sizeof pb, "%s/%s/blender-%s-b.exr", CASES, names[i], tag);
         if (access(gp, R_OK) != 0)
             continue;
-        sg_error e;
-        sg_graph *g = sg_graph_load_file(gp, &e);
+        char e[SG_ERROR_MAX] = "";
+        sg_graph *g = sg_graph_load_file(gp, e, sizeof e);
         render_material *m = g ? render_material_new(g, blender, err, sizeof err) : NULL;
         sg_graph_free(g);
         if (!m)
@@ -147,19 +147,19 @@ int main(int argc, char **argv)
         free(names[i]);
 
     /* 2. super-shader frames */
-    sg_error e;
-    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &e);
+    char e[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", e, sizeof e);
     sg_params p;
-    if (!g || sg_params_from_graph(g, &p, &e) < 0) {
-        fprintf(stderr, "bench_render: %s\n", e.msg);
+    if (!g || sg_params_from_graph(g, &p, e, sizeof e) < 0) {
+        fprintf(stderr, "bench_render: %s\n", e);
         return 1;
     }
     double total = 0, worst = 0, total_cpu = 0, total_all = 0, points = 0;
     for (int f = 0; f < frames; f++) {
         double t0 = wall_seconds();
         sg_params_sample(&p, (unsigned long long)f);
-        if (sg_graph_bind_params(g, &p, &e) < 0) {
-            fprintf(stderr, "bench_render: %s\n", e.msg);
+        if (sg_graph_bind_params(g, &p, e, sizeof e) < 0) {
+            fprintf(stderr, "bench_render: %s\n", e);
             return 1;
         }
         render_material *m = render_material_new(g, blender, err, sizeof err);
@@ -185,7 +185,7 @@ int main(int argc, char **argv)
 
     /* 3. scaling, frame 0 of the super-shader */
     sg_params_sample(&p, 0);
-    sg_graph_bind_params(g, &p, &e);
+    sg_graph_bind_params(g, &p, e, sizeof e);
     render_material *m = render_material_new(g, blender, err, sizeof err);
     if (!m) {
         fprintf(stderr, "bench_render: %s\n", err);

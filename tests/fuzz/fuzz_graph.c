@@ -17,12 +17,12 @@
 
 static void evaluate_base_color(const sg_graph *g)
 {
-    sg_error err;
-    const char *bsdf = sg_graph_surface_bsdf(g, &err);
+    char err[SG_ERROR_MAX] = "";
+    const char *bsdf = sg_graph_surface_bsdf(g, err, sizeof err);
     if (!bsdf)
         return;
     sg_socket_ref ref = {bsdf, "Base Color"};
-    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    sg_program *p = sg_compile(g, &ref, 1, NULL, err, sizeof err);
     if (!p)
         return; /* e.g. a group cycle or an unsupported node: reported, not crashed */
     sg_evaluator *e = sg_evaluator_new(p, FUZZ_POINTS);
@@ -40,15 +40,15 @@ static void evaluate_base_color(const sg_graph *g)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    sg_error err;
-    sg_graph *g = sg_graph_load_json((const char *)data, size, "fuzz.json", &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_json((const char *)data, size, "fuzz.json", err, sizeof err);
     if (!g)
         return 0;
     char *text = sg_graph_to_json(g);
     if (text) {
-        sg_graph *again = sg_graph_load_json(text, strlen(text), "fuzz-resaved.json", &err);
+        sg_graph *again = sg_graph_load_json(text, strlen(text), "fuzz-resaved.json", err, sizeof err);
         if (!again) { /* a graph we wrote is one we must read */
-            fprintf(stderr, "resaved graph refused: %s\n", err.msg);
+            fprintf(stderr, "resaved graph refused: %s\n", err);
             abort();
         }
         char *text2 = sg_graph_to_json(again);
@@ -59,7 +59,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         free(text);
     }
     sg_params params;
-    if (sg_params_from_graph(g, &params, &err) == 0)
+    if (sg_params_from_graph(g, &params, err, sizeof err) == 0)
         sg_params_free(&params);
     evaluate_base_color(g);
     sg_graph_free(g);

@@ -17,10 +17,10 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc;
     (void)argv;
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
-    if (!g || sg_params_from_graph(g, &names, &err) != 0) {
-        fprintf(stderr, "fuzz_params: %s\n", err.msg);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", err, sizeof err);
+    if (!g || sg_params_from_graph(g, &names, err, sizeof err) != 0) {
+        fprintf(stderr, "fuzz_params: %s\n", err);
         exit(1);
     }
     sg_graph_free(g);
@@ -32,8 +32,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     sg_params p;
     if (sg_params_copy(&names, &p) != 0)
         return 0;
-    sg_error err;
-    if (sg_params_read_json((const char *)data, size, "fuzz-params.json", &p, &err) == 0) {
+    char err[SG_ERROR_MAX] = "";
+    if (sg_params_read_json((const char *)data, size, "fuzz-params.json", &p, err, sizeof err) == 0) {
         for (int i = 0; i < p.n; i++)
             if (!(p.values[i] >= 0.0f && p.values[i] <= 1.0f))
                 abort(); /* the reader promises values in [0, 1] */

@@ -114,25 +114,25 @@ static void film_sample(float rgb[3])
 static int compare_map(const char *graph_path, const char *socket, sg_blender_mode mode,
                        const char *exr, char *why, size_t whylen)
 {
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_file(graph_path, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(graph_path, err, sizeof err);
     if (!g) {
-        snprintf(why, whylen, "%s", err.msg);
+        snprintf(why, whylen, "%s", err);
         return -1;
     }
     char refbuf[128];
     snprintf(refbuf, sizeof refbuf, "%s", socket);
     sg_socket_ref ref;
-    if (sg_socket_ref_parse(refbuf, &ref, &err) != 0) {
-        snprintf(why, whylen, "%s", err.msg);
+    if (sg_socket_ref_parse(refbuf, &ref, err, sizeof err) != 0) {
+        snprintf(why, whylen, "%s", err);
         sg_graph_free(g);
         return -1;
     }
     sg_compile_options opt = {.blender = mode};
-    sg_program *p = sg_compile(g, &ref, 1, &opt, &err);
+    sg_program *p = sg_compile(g, &ref, 1, &opt, err, sizeof err);
     sg_graph_free(g);
     if (!p) {
-        snprintf(why, whylen, "%.500s: %.1000s", graph_path, err.msg);
+        snprintf(why, whylen, "%.500s: %.1000s", graph_path, err);
         return -1;
     }
     int width = sg_socket_type_width(sg_program_output_type(p, 0));

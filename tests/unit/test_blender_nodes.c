@@ -115,25 +115,25 @@ static int compare_version(const node_case *nc, const char *socket, const char *
 
     char graph_path[640];
     snprintf(graph_path, sizeof graph_path, "%s/graph.json", nc->dir);
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_file(graph_path, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(graph_path, err, sizeof err);
     if (!g) {
-        snprintf(why, whylen, "%s", err.msg);
+        snprintf(why, whylen, "%s", err);
         return -1;
     }
     char refbuf[512];
     snprintf(refbuf, sizeof refbuf, "%s", socket);
     sg_socket_ref ref;
-    if (sg_socket_ref_parse(refbuf, &ref, &err) != 0) {
-        snprintf(why, whylen, "%s/case.json: %s", nc->dir, err.msg);
+    if (sg_socket_ref_parse(refbuf, &ref, err, sizeof err) != 0) {
+        snprintf(why, whylen, "%s/case.json: %s", nc->dir, err);
         sg_graph_free(g);
         return -1;
     }
     sg_compile_options opt = {.blender = mode};
-    sg_program *p = sg_compile(g, &ref, 1, &opt, &err);
+    sg_program *p = sg_compile(g, &ref, 1, &opt, err, sizeof err);
     sg_graph_free(g);
     if (!p) {
-        snprintf(why, whylen, "%s (Blender %s mode): %s", graph_path, version, err.msg);
+        snprintf(why, whylen, "%s (Blender %s mode): %s", graph_path, version, err);
         return -1;
     }
     int width = sg_socket_type_width(sg_program_output_type(p, 0));

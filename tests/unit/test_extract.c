@@ -27,11 +27,11 @@ enum { RES = 64, N = RES * RES };
  * unfolded: compiled without constant folding (the reference). */
 static void eval_maps(const sg_graph *g, sg_blender_mode mode, bool unfolded, float *out[4])
 {
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     sg_compile_options opt = {.blender = mode, .unfolded = unfolded};
-    sg_program *p = sg_compile(g, maps, 4, &opt, &err);
+    sg_program *p = sg_compile(g, maps, 4, &opt, err, sizeof err);
     if (!p)
-        fail_msg("compile: %s", err.msg);
+        fail_msg("compile: %s", err);
     enum { B = 256 };
     sg_evaluator *e = sg_evaluator_new(p, B);
     static float geom[48 * B], tmp[4][3 * B];
@@ -58,13 +58,13 @@ static int check_extraction(const sg_graph *g)
 {
     static float a[4][3 * N], b[4][3 * N];
     float *pa[4] = {a[0], a[1], a[2], a[3]}, *pb[4] = {b[0], b[1], b[2], b[3]};
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     int count = -1;
     for (int mode = 3; mode <= 4; mode++) {
         sg_extract_options opt = {.blender = (sg_blender_mode)mode};
-        sg_graph *x = sg_extract(g, &opt, &err);
+        sg_graph *x = sg_extract(g, &opt, err, sizeof err);
         if (!x)
-            fail_msg("extract: %s", err.msg);
+            fail_msg("extract: %s", err);
         /* Against the original evaluated node by node, not folded by the same pass that
          * made x (that would prove folding idempotent, not faithful). */
         eval_maps(g, (sg_blender_mode)mode, true, pa);
@@ -76,9 +76,9 @@ static int check_extraction(const sg_graph *g)
                              i % N, mode, (double)a[k][i], (double)b[k][i]);
         /* The result is a valid graph that survives a JSON round trip. */
         char *text = sg_graph_to_json(x);
-        sg_graph *y = sg_graph_load_json(text, strlen(text), "extracted", &err);
+        sg_graph *y = sg_graph_load_json(text, strlen(text), "extracted", err, sizeof err);
         if (!y)
-            fail_msg("extracted graph does not reload: %s", err.msg);
+            fail_msg("extracted graph does not reload: %s", err);
         count = sg_graph_node_count(x);
         free(text);
         sg_graph_free(y);
@@ -91,10 +91,10 @@ static sg_graph *load_asset(const char *rel)
 {
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", IMSYNTH_SOURCE_DIR, rel);
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(path, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(path, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     return g;
 }
 
@@ -167,10 +167,10 @@ static const char *const foldable =
 static void test_foldable_graph_simplifies_and_is_unchanged(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = sg_graph_load_json(foldable, strlen(foldable), "foldable", &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_json(foldable, strlen(foldable), "foldable", err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     int before = sg_graph_node_count(g);
     int after = check_extraction(g);
     /* Selector 0.6 > 0.5 picks B (Voronoi); Noise feeds only Metallic; Scale folds to
@@ -180,7 +180,7 @@ static void test_foldable_graph_simplifies_and_is_unchanged(void **state)
     assert_int_equal(before, 18);
     if (after != 5) {
         sg_extract_options opt = {0};
-        sg_graph *x = sg_extract(g, &opt, &err);
+        sg_graph *x = sg_extract(g, &opt, err, sizeof err);
         char *t = sg_graph_to_json(x);
         fail_msg("expected 5 nodes, got %d:\n%s", after, t);
     }
@@ -214,9 +214,9 @@ static void test_supershader_100_seeds(void **state)
     (void)state;
     sg_graph *g = load_asset("assets/supershader.json");
     sg_params params;
-    sg_error err;
-    if (sg_params_from_graph(g, &params, &err) < 0)
-        fail_msg("%s", err.msg);
+    char err[SG_ERROR_MAX] = "";
+    if (sg_params_from_graph(g, &params, err, sizeof err) < 0)
+        fail_msg("%s", err);
     enum { B = 256, BATCHES = 16 }; /* 4,096 points */
     static float storage[48 * B], a[4][3 * B], b[4][3 * B];
     float *pa[4] = {a[0], a[1], a[2], a[3]}, *pb[4] = {b[0], b[1], b[2], b[3]};
@@ -224,14 +224,14 @@ static void test_supershader_100_seeds(void **state)
     long total_nodes = 0;
     for (unsigned seed = 0; seed < seeds; seed++) {
         sg_params_sample(&params, seed);
-        if (sg_graph_bind_params(g, &params, &err) < 0)
-            fail_msg("%s", err.msg);
-        sg_graph *x = sg_extract(g, NULL, &err);
+        if (sg_graph_bind_params(g, &params, err, sizeof err) < 0)
+            fail_msg("%s", err);
+        sg_graph *x = sg_extract(g, NULL, err, sizeof err);
         if (!x)
-            fail_msg("seed %u: %s", seed, err.msg);
-        sg_program *pg = sg_compile(g, maps, 4, NULL, &err), *px = sg_compile(x, maps, 4, NULL, &err);
+            fail_msg("seed %u: %s", seed, err);
+        sg_program *pg = sg_compile(g, maps, 4, NULL, err, sizeof err), *px = sg_compile(x, maps, 4, NULL, err, sizeof err);
         if (!pg || !px)
-            fail_msg("seed %u: compile: %s", seed, err.msg);
+            fail_msg("seed %u: compile: %s", seed, err);
         sg_evaluator *eg = sg_evaluator_new(pg, B), *ex = sg_evaluator_new(px, B);
         for (int batch = 0; batch < BATCHES; batch++) {
             sg_geometry_batch gb;

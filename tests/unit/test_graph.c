@@ -57,20 +57,20 @@ static char *mutate(const char *from, const char *to)
     return s;
 }
 
-static sg_graph *load(const char *text, sg_error *err)
+static sg_graph *load(const char *text, char *err, size_t errlen)
 {
-    return sg_graph_load_json(text, strlen(text), "t.json", err);
+    return sg_graph_load_json(text, strlen(text), "t.json", err, errlen);
 }
 
 /* Loading `text` must fail with a message containing every given fragment. */
 static void expect_error(const char *text, const char *frag1, const char *frag2)
 {
-    sg_error err = {{0}};
-    sg_graph *g = load(text, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(text, err, sizeof err);
     if (g)
         fail_msg("accepted an invalid graph (expected \"%s\")", frag1);
-    if (!strstr(err.msg, "t.json") || !strstr(err.msg, frag1) || (frag2 && !strstr(err.msg, frag2)))
-        fail_msg("message \"%s\" lacks \"%s\" / \"%s\"", err.msg, frag1, frag2 ? frag2 : "");
+    if (!strstr(err, "t.json") || !strstr(err, frag1) || (frag2 && !strstr(err, frag2)))
+        fail_msg("message \"%s\" lacks \"%s\" / \"%s\"", err, frag1, frag2 ? frag2 : "");
 }
 
 static void expect_mutation_error(const char *from, const char *to, const char *frag1,
@@ -84,10 +84,10 @@ static void expect_mutation_error(const char *from, const char *to, const char *
 static void test_valid_graph_loads(void **state)
 {
     (void)state;
-    sg_error err = {{0}};
-    sg_graph *g = load(valid_graph, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(valid_graph, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_graph_free(g);
 }
 
@@ -167,13 +167,13 @@ static void test_rejects_structural_errors(void **state)
 static void test_round_trip_is_lossless(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = load(valid_graph, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(valid_graph, err, sizeof err);
     assert_non_null(g);
     char *a = sg_graph_to_json(g);
-    sg_graph *h = load(a, &err);
+    sg_graph *h = load(a, err, sizeof err);
     if (!h)
-        fail_msg("reload failed: %s\n%s", err.msg, a);
+        fail_msg("reload failed: %s\n%s", err, a);
     char *b = sg_graph_to_json(h);
     assert_string_equal(a, b);
     /* Values that matter survive: the label, the non-default input, the group default. */
@@ -189,16 +189,16 @@ static void test_round_trip_is_lossless(void **state)
 static void test_save_file_is_atomic_and_reloads(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = load(valid_graph, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(valid_graph, err, sizeof err);
     assert_non_null(g);
     char path[] = IMSYNTH_BINARY_DIR "/test_graph_save.json";
-    assert_int_equal(sg_graph_save_file(g, path, &err), 0);
-    sg_graph *h = sg_graph_load_file(path, &err);
+    assert_int_equal(sg_graph_save_file(g, path, err, sizeof err), 0);
+    sg_graph *h = sg_graph_load_file(path, err, sizeof err);
     assert_non_null(h);
     /* Saving into a missing directory fails with the path in the message. */
-    assert_int_equal(sg_graph_save_file(g, IMSYNTH_BINARY_DIR "/no/such/dir/x.json", &err), -1);
-    assert_non_null(strstr(err.msg, "no/such/dir/x.json"));
+    assert_int_equal(sg_graph_save_file(g, IMSYNTH_BINARY_DIR "/no/such/dir/x.json", err, sizeof err), -1);
+    assert_non_null(strstr(err, "no/such/dir/x.json"));
     remove(path);
     sg_graph_free(g);
     sg_graph_free(h);
@@ -207,14 +207,14 @@ static void test_save_file_is_atomic_and_reloads(void **state)
 /* Evaluate one float socket at 4 points of the plane. */
 static void eval_float(const char *text, const char *node, const char *socket, float out[4])
 {
-    sg_error err;
-    sg_graph *g = load(text, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(text, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_socket_ref ref = {node, socket};
-    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    sg_program *p = sg_compile(g, &ref, 1, NULL, err, sizeof err);
     if (!p)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_evaluator *e = sg_evaluator_new(p, 4);
     float geom[48 * 4], v[3 * 4];
     sg_geometry_batch gb;
@@ -248,16 +248,16 @@ static void test_eval_through_group_and_reroute(void **state)
 static void test_compile_errors(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = load(valid_graph, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(valid_graph, err, sizeof err);
     assert_non_null(g);
     sg_socket_ref bad[] = {{"Nope", "Value"}, {"M", "Nope"}, {"Principled BSDF", "BSDF"}};
     const char *frag[] = {"Nope", "Nope", "shader"};
     for (int i = 0; i < 3; i++) {
-        sg_program *p = sg_compile(g, &bad[i], 1, NULL, &err);
+        sg_program *p = sg_compile(g, &bad[i], 1, NULL, err, sizeof err);
         assert_null(p);
-        if (!strstr(err.msg, frag[i]))
-            fail_msg("\"%s\" lacks \"%s\"", err.msg, frag[i]);
+        if (!strstr(err, frag[i]))
+            fail_msg("\"%s\" lacks \"%s\"", err, frag[i]);
     }
     sg_graph_free(g);
 }
@@ -266,15 +266,15 @@ static void test_socket_ref_parse(void **state)
 {
     (void)state;
     sg_socket_ref r;
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     char a[] = "Node:With:Colons:Fac";
-    assert_int_equal(sg_socket_ref_parse(a, &r, &err), 0);
+    assert_int_equal(sg_socket_ref_parse(a, &r, err, sizeof err), 0);
     assert_string_equal(r.node, "Node:With:Colons");
     assert_string_equal(r.socket, "Fac");
     char b[] = "NoColon";
-    assert_int_equal(sg_socket_ref_parse(b, &r, &err), -1);
+    assert_int_equal(sg_socket_ref_parse(b, &r, err, sizeof err), -1);
     char c[] = "Node:";
-    assert_int_equal(sg_socket_ref_parse(c, &r, &err), -1);
+    assert_int_equal(sg_socket_ref_parse(c, &r, err, sizeof err), -1);
 }
 
 /* A colour into a float socket converts by luminance, a vector by the average, a
@@ -308,14 +308,14 @@ static void test_pointwise_equals_batch(void **state)
         " \"links\": [{\"from_node\": \"T\", \"from_socket\": \"Object\", \"to_node\": \"N\", \"to_socket\": \"Vector\"},\n"
         "  {\"from_node\": \"N\", \"from_socket\": \"Fac\", \"to_node\": \"B\", \"to_socket\": \"Height\"},\n"
         "  {\"from_node\": \"B\", \"from_socket\": \"Normal\", \"to_node\": \"Out\", \"to_socket\": \"Displacement\"}]}";
-    sg_error err;
-    sg_graph *g = load(text, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(text, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_socket_ref ref[2] = {{"B", "Normal"}, {"N", "Color"}};
-    sg_program *p = sg_compile(g, ref, 2, NULL, &err);
+    sg_program *p = sg_compile(g, ref, 2, NULL, err, sizeof err);
     if (!p)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     enum { N = 100 };
     sg_evaluator *e = sg_evaluator_new(p, N);
     static float geom[48 * N], a0[3 * N], a1[3 * N], b0[3 * N], b1[3 * N];
@@ -347,20 +347,20 @@ static void test_pointwise_equals_batch(void **state)
 static void test_surface_bsdf(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = load(valid_graph, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = load(valid_graph, err, sizeof err);
     assert_non_null(g);
-    const char *name = sg_graph_surface_bsdf(g, &err);
+    const char *name = sg_graph_surface_bsdf(g, err, sizeof err);
     assert_non_null(name);
     assert_string_equal(name, "Principled BSDF");
     sg_graph_free(g);
     char *s = mutate("{\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\", \"to_node\": \"Material Output\", \"to_socket\": \"Surface\"}",
                      "{\"from_node\": \"Principled BSDF\", \"from_socket\": \"BSDF\", \"to_node\": \"Material Output\", \"to_socket\": \"Volume\"}");
-    g = load(s, &err);
+    g = load(s, err, sizeof err);
     free(s);
     assert_non_null(g);
-    assert_null(sg_graph_surface_bsdf(g, &err));
-    assert_non_null(strstr(err.msg, "Surface"));
+    assert_null(sg_graph_surface_bsdf(g, err, sizeof err));
+    assert_non_null(strstr(err, "Surface"));
     sg_graph_free(g);
 }
 
@@ -444,16 +444,16 @@ static char *group_bomb(int depth)
 static void test_limits_refuse_before_work(void **state)
 {
     (void)state;
-    sg_error err = {{0}};
+    char err[SG_ERROR_MAX] = "";
     /* At the limit a tree loads and compiles (the super-shader has 531 nodes). */
     char *at = math_chain(SG_MAX_TREE_NODES - 2);
-    sg_graph *g = load(at, &err);
+    sg_graph *g = load(at, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_socket_ref ref = {"P", "Roughness"};
-    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    sg_program *p = sg_compile(g, &ref, 1, NULL, err, sizeof err);
     if (!p)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_program_free(p);
     sg_graph_free(g);
     free(at);
@@ -465,20 +465,20 @@ static void test_limits_refuse_before_work(void **state)
     /* Nested groups: refused when inlined (the path through them is 2^39 interfaces
      * long), counted without expanding them. */
     char *bomb = group_bomb(40);
-    g = load(bomb, &err);
+    g = load(bomb, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     /* G(k) shows 2^(k+2) - 2 nodes: G39 more than INT_MAX. */
     assert_int_equal(sg_graph_node_count(g), INT_MAX);
-    p = sg_compile(g, &ref, 1, NULL, &err);
+    p = sg_compile(g, &ref, 1, NULL, err, sizeof err);
     assert_null(p);
-    if (!strstr(err.msg, "crosses more than 1000 reroutes and group interfaces"))
-        fail_msg("\"%s\"", err.msg);
+    if (!strstr(err, "crosses more than 1000 reroutes and group interfaces"))
+        fail_msg("\"%s\"", err);
     sg_graph_free(g);
     free(bomb);
     /* A small bomb counts exactly: G3 shows 2^5 - 2 nodes, next to O and P. */
     bomb = group_bomb(4);
-    g = load(bomb, &err);
+    g = load(bomb, err, sizeof err);
     assert_non_null(g);
     assert_int_equal(sg_graph_node_count(g), 2 + 30);
     sg_graph_free(g);
@@ -492,10 +492,10 @@ static void test_limits_refuse_before_work(void **state)
     for (size_t n = strlen(valid_graph); n <= SG_MAX_GRAPH_FILE_BYTES; n++)
         fputc(' ', f);
     assert_int_equal(fclose(f), 0);
-    g = sg_graph_load_file(path, &err);
+    g = sg_graph_load_file(path, err, sizeof err);
     assert_null(g);
-    if (!strstr(err.msg, "test_graph_too_large.json: larger than the 16777216 bytes"))
-        fail_msg("\"%s\"", err.msg);
+    if (!strstr(err, "test_graph_too_large.json: larger than the 16777216 bytes"))
+        fail_msg("\"%s\"", err);
     remove(path);
 }
 

@@ -49,19 +49,19 @@ static const char *const small_graph =
 
 static sg_graph *load_small(void)
 {
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_json(small_graph, strlen(small_graph), "small.json", &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_json(small_graph, strlen(small_graph), "small.json", err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     return g;
 }
 
 /* Base Color of g at one point of the plane. */
 static void base_color(const sg_graph *g, float rgb[3])
 {
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     sg_socket_ref ref = {"Principled BSDF", "Base Color"};
-    sg_program *p = sg_compile(g, &ref, 1, NULL, &err);
+    sg_program *p = sg_compile(g, &ref, 1, NULL, err, sizeof err);
     assert_non_null(p);
     sg_evaluator *e = sg_evaluator_new(p, 1);
     float storage[48];
@@ -202,8 +202,8 @@ static void test_from_graph_and_bind(void **state)
     (void)state;
     sg_graph *g = load_small();
     sg_params p;
-    sg_error err = {{0}};
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    char err[SG_ERROR_MAX] = "";
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     assert_int_equal(p.n, 3);
     assert_string_equal(p.names[0], "A");
     assert_string_equal(p.names[1], "Mult 3 B");
@@ -216,7 +216,7 @@ static void test_from_graph_and_bind(void **state)
     p.values[0] = 0.125f;
     p.values[1] = 0.875f;
     p.values[2] = 0.0625f;
-    assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+    assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
     float rgb[3];
     base_color(g, rgb);
     assert_true(rgb[0] == 0.125f && rgb[1] == 0.875f && rgb[2] == 0.0625f);
@@ -224,10 +224,10 @@ static void test_from_graph_and_bind(void **state)
     /* They survive saving and loading (Value nodes and interface defaults agree). */
     char *text = sg_graph_to_json(g);
     assert_non_null(text);
-    sg_graph *g2 = sg_graph_load_json(text, strlen(text), "saved.json", &err);
+    sg_graph *g2 = sg_graph_load_json(text, strlen(text), "saved.json", err, sizeof err);
     assert_non_null(g2);
     sg_params q;
-    assert_int_equal(sg_params_from_graph(g2, &q, &err), 0);
+    assert_int_equal(sg_params_from_graph(g2, &q, err, sizeof err), 0);
     assert_memory_equal(p.values, q.values, sizeof(float) * 3);
     sg_params_free(&q);
     sg_graph_free(g2);
@@ -237,24 +237,24 @@ static void test_from_graph_and_bind(void **state)
     sg_params bad;
     assert_int_equal(sg_params_copy(&p, &bad), 0);
     bad.values[1] = 1.5f;
-    assert_int_equal(sg_graph_bind_params(g, &bad, &err), -1);
-    assert_non_null(strstr(err.msg, "Mult 3 B"));
+    assert_int_equal(sg_graph_bind_params(g, &bad, err, sizeof err), -1);
+    assert_non_null(strstr(err, "Mult 3 B"));
     bad.values[1] = NAN;
-    assert_int_equal(sg_graph_bind_params(g, &bad, &err), -1);
-    assert_non_null(strstr(err.msg, "Mult 3 B"));
+    assert_int_equal(sg_graph_bind_params(g, &bad, err, sizeof err), -1);
+    assert_non_null(strstr(err, "Mult 3 B"));
     base_color(g, rgb);
     assert_true(rgb[1] == 0.875f);
     sg_params_free(&bad);
 
     const char *two[2] = {"A", "C"};
     make_params(&bad, two, 2);
-    assert_int_equal(sg_graph_bind_params(g, &bad, &err), -1);
-    assert_non_null(strstr(err.msg, "\"Mult 3 B\": missing"));
+    assert_int_equal(sg_graph_bind_params(g, &bad, err, sizeof err), -1);
+    assert_non_null(strstr(err, "\"Mult 3 B\": missing"));
     sg_params_free(&bad);
     const char *four[4] = {"A", "Mult 3 B", "C", "D"};
     make_params(&bad, four, 4);
-    assert_int_equal(sg_graph_bind_params(g, &bad, &err), -1);
-    assert_non_null(strstr(err.msg, "\"D\""));
+    assert_int_equal(sg_graph_bind_params(g, &bad, err, sizeof err), -1);
+    assert_non_null(strstr(err, "\"D\""));
     sg_params_free(&bad);
 
     sg_params_free(&p);
@@ -264,16 +264,16 @@ static void test_from_graph_and_bind(void **state)
 static void test_graph_without_parameters(void **state)
 {
     (void)state;
-    sg_error err = {{0}};
+    char err[SG_ERROR_MAX] = "";
     sg_params p;
     /* Rename the group: the graph still loads but has no parameter group. */
     char *text = strdup(small_graph);
     for (char *at; (at = strstr(text, "RandomValues"));)
         memcpy(at, "RandomVALUES", 12);
-    sg_graph *g = sg_graph_load_json(text, strlen(text), "renamed.json", &err);
+    sg_graph *g = sg_graph_load_json(text, strlen(text), "renamed.json", err, sizeof err);
     assert_non_null(g);
-    assert_int_equal(sg_params_from_graph(g, &p, &err), -1);
-    assert_non_null(strstr(err.msg, "RandomValues"));
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "RandomValues"));
     sg_graph_free(g);
     free(text);
 
@@ -287,11 +287,11 @@ static void test_graph_without_parameters(void **state)
     while (*comma != ',')
         comma--;
     *comma = ' '; /* the comma before it: C's link was the last */
-    g = sg_graph_load_json(text, strlen(text), "unfed.json", &err);
+    g = sg_graph_load_json(text, strlen(text), "unfed.json", err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
-    assert_int_equal(sg_params_from_graph(g, &p, &err), -1);
-    assert_non_null(strstr(err.msg, "\"C\" is not fed by a Value node"));
+        fail_msg("%s", err);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "\"C\" is not fed by a Value node"));
     sg_graph_free(g);
     free(text);
 }
@@ -355,10 +355,10 @@ static void expect_read_error(const char *text, const char *expect)
     char path[600];
     snprintf(path, sizeof path, "%s/bad.json", tmpdir);
     write_text(path, text);
-    sg_error err = {{0}};
-    assert_int_equal(sg_params_read_file(path, &p, &err), -1);
-    if (!strstr(err.msg, path) || !strstr(err.msg, expect))
-        fail_msg("message \"%s\" lacks \"%s\" or the path", err.msg, expect);
+    char err[SG_ERROR_MAX] = "";
+    assert_int_equal(sg_params_read_file(path, &p, err, sizeof err), -1);
+    if (!strstr(err, path) || !strstr(err, expect))
+        fail_msg("message \"%s\" lacks \"%s\" or the path", err, expect);
     assert_true(p.values[0] == 0.5f); /* unchanged on error */
     sg_params_free(&p);
 }
@@ -382,11 +382,11 @@ static void test_file_errors(void **state)
     sg_params p;
     const char *names[1] = {"A"};
     make_params(&p, names, 1);
-    sg_error err;
-    assert_int_equal(sg_params_read_file("/nonexistent/params.json", &p, &err), -1);
-    assert_non_null(strstr(err.msg, "/nonexistent/params.json"));
-    assert_int_equal(sg_params_write_file("/nonexistent/dir/params.json", &p, &err), -1);
-    assert_non_null(strstr(err.msg, "/nonexistent/dir/params.json"));
+    char err[SG_ERROR_MAX] = "";
+    assert_int_equal(sg_params_read_file("/nonexistent/params.json", &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "/nonexistent/params.json"));
+    assert_int_equal(sg_params_write_file("/nonexistent/dir/params.json", &p, err, sizeof err), -1);
+    assert_non_null(strstr(err, "/nonexistent/dir/params.json"));
     sg_params_free(&p);
 }
 
@@ -397,8 +397,8 @@ static void test_file_round_trip(void **state)
     (void)state;
     sg_graph *g = load_small();
     sg_params p, q;
-    sg_error err = {{0}};
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    char err[SG_ERROR_MAX] = "";
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     assert_int_equal(sg_params_copy(&p, &q), 0);
     char path[600];
     snprintf(path, sizeof path, "%s/p.json", tmpdir);
@@ -407,9 +407,9 @@ static void test_file_round_trip(void **state)
         sg_params_sample(&p, f);
         if (f == 7) /* values that need all 9 digits */
             p.values[2] = 0.1f + 1e-7f;
-        assert_int_equal(sg_params_write_file(path, &p, &err), 0);
+        assert_int_equal(sg_params_write_file(path, &p, err, sizeof err), 0);
         memset(q.values, 0, sizeof(float) * 3);
-        assert_int_equal(sg_params_read_file(path, &q, &err), 0);
+        assert_int_equal(sg_params_read_file(path, &q, err, sizeof err), 0);
         assert_memory_equal(p.values, q.values, sizeof(float) * 3);
     }
     assert_int_equal(count_files(), before + 1);
@@ -418,7 +418,7 @@ static void test_file_round_trip(void **state)
     assert_non_null(text);
     assert_true(strstr(text, "\"A\"") < strstr(text, "\"Mult 3 B\""));
     assert_true(strstr(text, "\"Mult 3 B\"") < strstr(text, "\"C\""));
-    assert_int_equal(sg_params_read_json(text, strlen(text), "mem", &q, &err), 0);
+    assert_int_equal(sg_params_read_json(text, strlen(text), "mem", &q, err, sizeof err), 0);
     assert_memory_equal(p.values, q.values, sizeof(float) * 3);
     free(text);
     sg_params_free(&p);

@@ -82,11 +82,11 @@ enum { RES = 24, N = RES * RES };
 /* The four maps of g over a RES x RES view of the plane, 3 N floats each, into out. */
 static void eval_maps(const sg_graph *g, float *out)
 {
-    sg_error err;
+    char err[SG_ERROR_MAX] = "";
     sg_compile_options opt = {.blender = SG_BLENDER_4};
-    sg_program *p = sg_compile(g, maps, 4, &opt, &err);
+    sg_program *p = sg_compile(g, maps, 4, &opt, err, sizeof err);
     if (!p)
-        fail_msg("compile: %s", err.msg);
+        fail_msg("compile: %s", err);
     sg_evaluator *e = sg_evaluator_new(p, N);
     memset(out, 0, 12 * N * sizeof(float)); /* float maps fill N of their 3N */
     float *geom = malloc(48 * N * sizeof(float));
@@ -115,27 +115,27 @@ static void eval_with(sg_graph *g, sg_params *p, int k, float v, float *out)
 {
     float keep = p->values[k];
     p->values[k] = v;
-    sg_error err;
-    assert_int_equal(sg_graph_bind_params(g, p, &err), 0);
+    char err[SG_ERROR_MAX] = "";
+    assert_int_equal(sg_graph_bind_params(g, p, err, sizeof err), 0);
     eval_maps(g, out);
     p->values[k] = keep;
-    assert_int_equal(sg_graph_bind_params(g, p, &err), 0);
+    assert_int_equal(sg_graph_bind_params(g, p, err, sizeof err), 0);
 }
 
 static void test_inactive_params_change_nothing(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", err, sizeof err);
     assert_non_null(g);
     sg_params p;
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     float *base = malloc(12 * N * sizeof(float)), *other = malloc(12 * N * sizeof(float));
     int seeds = getenv("IMSYNTH_TEST_QUICK") ? 2 : 6, inactive_total = 0, active_total = 0;
     int active_changed = 0;
     for (int s = 0; s < seeds; s++) {
         sg_params_sample(&p, (unsigned long long)(1000 + s));
-        assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+        assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
         uint8_t active[64];
         int nodes = 0;
         char msg[512];
@@ -186,16 +186,16 @@ static void test_inactive_params_change_nothing(void **state)
 static void test_distinct_subshaders(void **state)
 {
     (void)state;
-    sg_error err;
-    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", err, sizeof err);
     assert_non_null(g);
     sg_params p;
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     int n = p.n, found = 0;
     float *sets = malloc(sizeof(float) * 4 * (size_t)n);
     for (int s = 0; s < 20 && !found; s++) {
         sg_params_sample(&p, (unsigned long long)(2000 + s));
-        assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+        assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
         uint8_t active[64];
         char msg[512];
         assert_int_equal(pipeline_active_params(g, 4, active, NULL, msg, sizeof msg), 0);
@@ -212,7 +212,7 @@ static void test_distinct_subshaders(void **state)
     }
     assert_true(found);
     sg_params_sample(&p, 77);
-    assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+    assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
     int index[4];
     char msg[512];
     assert_int_equal(pipeline_distinct_subshaders(g, 4, sets, 4, 4, index, msg, sizeof msg), 2);
@@ -220,7 +220,7 @@ static void test_distinct_subshaders(void **state)
     assert_int_equal(index[1], 2);
     assert_int_equal(pipeline_distinct_subshaders(g, 4, sets, 4, 1, index, msg, sizeof msg), 1);
     sg_params now;
-    assert_int_equal(sg_params_from_graph(g, &now, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &now, err, sizeof err), 0);
     assert_memory_equal(now.values, p.values, sizeof(float) * (size_t)n);
     sg_params_free(&now);
     free(sets);

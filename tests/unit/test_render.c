@@ -319,10 +319,10 @@ static const char *const graph_json =
 
 static render_material *test_material(int blender)
 {
-    sg_error e;
-    sg_graph *g = sg_graph_load_json(graph_json, strlen(graph_json), "test", &e);
+    char e[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_json(graph_json, strlen(graph_json), "test", e, sizeof e);
     if (!g)
-        fail_msg("%s", e.msg);
+        fail_msg("%s", e);
     char err[512];
     render_material *m = render_material_new(g, blender, err, sizeof err);
     sg_graph_free(g);

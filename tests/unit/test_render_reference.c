@@ -201,10 +201,10 @@ static int run_mode(render_mode mode, int subset, int *n_compared)
             if (file_exists(sp) && !(case_scene = render_scene_load(sp, err, sizeof err)))
                 fail_msg("%s", err);
             const render_scene *scene = case_scene ? case_scene : s;
-            sg_error e;
-            sg_graph *g = sg_graph_load_file(gp, &e);
+            char e[SG_ERROR_MAX] = "";
+            sg_graph *g = sg_graph_load_file(gp, e, sizeof e);
             if (!g)
-                fail_msg("%s", e.msg);
+                fail_msg("%s", e);
             render_material *m = render_material_new(g, versions[vi].blender, err, sizeof err);
             sg_graph_free(g);
             if (!m)

@@ -80,14 +80,14 @@ static void test_asset_shape(void **state)
     assert_true(nodes >= 400 && nodes <= 600);
     cJSON_Delete(root);
 
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_json(text, len, ASSET, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_json(text, len, ASSET, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     free(text);
     assert_int_equal(sg_graph_node_count(g), nodes);
     sg_params p;
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     assert_int_equal(p.n, 50);
     int mults = 0;
     for (int i = 0; i < p.n; i++) {
@@ -111,10 +111,10 @@ typedef struct maps_buf {
 
 static void eval_maps(const sg_graph *g, int size, int stride, maps_buf *mb)
 {
-    sg_error err = {{0}};
-    sg_program *prog = sg_compile(g, maps, N_MAPS, NULL, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_program *prog = sg_compile(g, maps, N_MAPS, NULL, err, sizeof err);
     if (!prog)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     for (int k = 0; k < N_MAPS; k++)
         assert_int_equal(sg_socket_type_width(sg_program_output_type(prog, k)), map_width[k]);
     enum { BATCH = 256 };
@@ -172,12 +172,12 @@ static bool maps_equal(const maps_buf *a, const maps_buf *b)
 static void test_every_choice_matters(void **state)
 {
     (void)state;
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_file(ASSET, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(ASSET, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_params p;
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     enum { SIZE = 32, STRIDE = 4, MAX_CHOICES = 16, FRAMES = 12 };
     const int n_points = SIZE * SIZE / STRIDE;
     maps_buf out[MAX_CHOICES];
@@ -194,7 +194,7 @@ static void test_every_choice_matters(void **state)
             sg_params_sample(&p, (unsigned long long)frame);
             for (int c = 0; c < n; c++) {
                 p.values[i] = (float)((c + 0.5) / n);
-                assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+                assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
                 eval_maps(g, SIZE, STRIDE, &out[c]);
             }
             for (int a = 0; a < n; a++)
@@ -222,12 +222,12 @@ static void test_every_choice_matters(void **state)
 static void test_plane_is_finite(void **state)
 {
     (void)state;
-    sg_error err = {{0}};
-    sg_graph *g = sg_graph_load_file(ASSET, &err);
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g = sg_graph_load_file(ASSET, err, sizeof err);
     if (!g)
-        fail_msg("%s", err.msg);
+        fail_msg("%s", err);
     sg_params p;
-    assert_int_equal(sg_params_from_graph(g, &p, &err), 0);
+    assert_int_equal(sg_params_from_graph(g, &p, err, sizeof err), 0);
     enum { SIZE = 64, FRAMES = 24 };
     maps_buf mb, first;
     maps_alloc(&mb, SIZE * SIZE);
@@ -235,7 +235,7 @@ static void test_plane_is_finite(void **state)
     int flat = 0;
     for (int frame = 0; frame < FRAMES; frame++) {
         sg_params_sample(&p, 1000u + (unsigned)frame);
-        assert_int_equal(sg_graph_bind_params(g, &p, &err), 0);
+        assert_int_equal(sg_graph_bind_params(g, &p, err, sizeof err), 0);
         eval_maps(g, SIZE, 1, frame ? &mb : &first);
         const maps_buf *m = frame ? &mb : &first;
         double lo = 1e30, hi = -1e30;
