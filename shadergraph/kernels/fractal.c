@@ -40,87 +40,6 @@ static float noise_fbm(const noise_mode *m, const float *t, float detail, float 
     return normalize ? 0.5f * sum / maxamp + 0.5f : sum;
 }
 
-static float noise_multi_fractal(const noise_mode *m, const float *t, float detail, float roughness)
-{
-    int n = (int)detail;
-    float rmd = detail - floorf(detail);
-
-    float value = 1.0f, pwr = 1.0f;
-    for (int i = 0; i <= n; i++) {
-        value *= madd(pwr, m->scale * t[i], 1.0f);
-        pwr *= roughness;
-    }
-    if (rmd != 0.0f)
-        value *= madd(rmd * pwr, m->scale * t[n + 1], 1.0f);
-    return value;
-}
-
-static float noise_hetero_terrain(const noise_mode *m, const float *t, float detail,
-                                  float roughness, float offset)
-{
-    int n = (int)detail;
-    float rmd = detail - floorf(detail);
-
-    /* The first octave is unscaled; later ones are scaled by the value so far. In
-     * snoise + offset the noise's scaling product fuses into the sum. */
-    float pwr = roughness;
-    float value = madd(m->scale, t[0], offset);
-    for (int i = 1; i <= n; i++) {
-        float increment = madd(m->scale, t[i], offset) * pwr;
-        value = madd(increment, value, value);
-        pwr *= roughness;
-    }
-    if (rmd != 0.0f) {
-        float increment = madd(m->scale, t[n + 1], offset) * pwr * value;
-        value = madd(rmd, increment, value);
-    }
-    return value;
-}
-
-static float noise_hybrid_multi_fractal(const noise_mode *m, const float *t, float detail,
-                                        float roughness, float offset, float gain)
-{
-    int n = (int)detail;
-    float rmd = detail - floorf(detail);
-
-    float pwr = 1.0f, value = 0.0f, weight = 1.0f;
-    for (int i = 0; weight > 0.001f && i <= n; i++) {
-        if (weight > 1.0f)
-            weight = 1.0f;
-        float signal = madd(m->scale, t[i], offset) * pwr;
-        pwr *= roughness;
-        value = madd(weight, signal, value);
-        weight *= gain * signal;
-    }
-    if (rmd != 0.0f && weight > 0.001f) {
-        if (weight > 1.0f)
-            weight = 1.0f;
-        float signal = madd(m->scale, t[n + 1], offset) * pwr;
-        value = madd(rmd * weight, signal, value);
-    }
-    return value;
-}
-
-static float noise_ridged_multi_fractal(const noise_mode *m, const float *t, float detail,
-                                        float roughness, float offset, float gain)
-{
-    int n = (int)detail;
-
-    float pwr = roughness;
-    float signal = offset - fabsf(m->scale * t[0]);
-    signal *= signal;
-    float value = signal, weight = 1.0f;
-    for (int i = 1; i <= n; i++) {
-        weight = clampf(signal * gain, 0.0f, 1.0f);
-        signal = offset - fabsf(m->scale * t[i]);
-        signal *= signal;
-        signal *= weight;
-        value = madd(signal, pwr, value);
-        pwr *= roughness;
-    }
-    return value;
-}
-
 /* ---- Blender 3.4's Noise Texture fBM (fractal_noise.h of 3.4) --------------------- */
 
 static float fractal_noise(const noise_mode *m, const float *t, float octaves, float roughness)
@@ -146,7 +65,7 @@ static float fractal_noise(const noise_mode *m, const float *t, float octaves, f
     return sum / maxamp;
 }
 
-/* ---- Blender 3.4's Musgrave Texture (musgrave.h of 3.4) -------------------------- */
+/* ---- Blender 3.4's Musgrave Texture fBM (musgrave.h of 3.4) ---------------------- */
 
 static float noise_musgrave_fBm(const noise_mode *m, const float *t, float H, float lacunarity,
                                 float octaves)
@@ -163,80 +82,84 @@ static float noise_musgrave_fBm(const noise_mode *m, const float *t, float H, fl
     return value;
 }
 
-static float noise_musgrave_multi_fractal(const noise_mode *m, const float *t, float H,
-                                          float lacunarity, float octaves)
+/* ---- both versions ---------------------------------------------------------------- */
+
+/* The multifractals of both versions. Blender 4.1 turned 3.4's Musgrave Texture into
+ * these by versioning: Detail = Musgrave Detail - 1, Roughness = Lacunarity^-Dimension.
+ * Both loops are the same function of `whole`, the number of whole octaves (4.x:
+ * Detail + 1; 3.4: the Musgrave's Detail), `rmd`, the weight of the fractional octave
+ * t[whole], and `rough`, the amplitude factor from octave to octave (4.x: Roughness;
+ * 3.4: Lacunarity^-H). */
+
+static float noise_multi_fractal(const noise_mode *m, const float *t, int whole, float rmd,
+                                 float rough)
 {
-    int n = (int)octaves;
-    float value = 1.0f, pwr = 1.0f, pwHL = powf(lacunarity, -H);
-    for (int i = 0; i < n; i++) {
+    float value = 1.0f, pwr = 1.0f;
+    for (int i = 0; i < whole; i++) {
         value *= madd(pwr, m->scale * t[i], 1.0f);
-        pwr *= pwHL;
+        pwr *= rough;
     }
-    float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f)
-        value *= madd(rmd * pwr, m->scale * t[n], 1.0f);
+        value *= madd(rmd * pwr, m->scale * t[whole], 1.0f);
     return value;
 }
 
-static float noise_musgrave_hetero_terrain(const noise_mode *m, const float *t, float H,
-                                           float lacunarity, float octaves, float offset)
+static float noise_hetero_terrain(const noise_mode *m, const float *t, int whole, float rmd,
+                                  float rough, float offset)
 {
-    int n = (int)octaves;
-    float pwHL = powf(lacunarity, -H), pwr = pwHL;
+    /* The first octave is unscaled, and evaluated even with no whole octave; later ones
+     * are scaled by the value so far. In snoise + offset the noise's scaling product
+     * fuses into the sum. */
+    float pwr = rough;
     float value = madd(m->scale, t[0], offset);
-    for (int i = 1; i < n; i++) {
+    for (int i = 1; i < whole; i++) {
         float increment = madd(m->scale, t[i], offset) * pwr;
         value = madd(increment, value, value);
-        pwr *= pwHL;
+        pwr *= rough;
     }
-    float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f) {
-        float increment = madd(m->scale, t[n < 1 ? 1 : n], offset) * pwr * value;
+        float increment = madd(m->scale, t[whole < 1 ? 1 : whole], offset) * pwr * value;
         value = madd(rmd, increment, value);
     }
     return value;
 }
 
-static float noise_musgrave_hybrid_multi_fractal(const noise_mode *m, const float *t, float H,
-                                                 float lacunarity, float octaves, float offset,
-                                                 float gain)
+static float noise_hybrid_multi_fractal(const noise_mode *m, const float *t, int whole,
+                                        float rmd, float rough, float offset, float gain)
 {
-    int n = (int)octaves;
-    float pwHL = powf(lacunarity, -H), pwr = 1.0f, value = 0.0f, weight = 1.0f;
-    for (int i = 0; weight > 0.001f && i < n; i++) {
+    float pwr = 1.0f, value = 0.0f, weight = 1.0f;
+    for (int i = 0; weight > 0.001f && i < whole; i++) {
         if (weight > 1.0f)
             weight = 1.0f;
         float signal = madd(m->scale, t[i], offset) * pwr;
-        pwr *= pwHL;
+        pwr *= rough;
         value = madd(weight, signal, value);
         weight *= gain * signal;
     }
-    float rmd = octaves - floorf(octaves);
     if (rmd != 0.0f && weight > 0.001f) {
         if (weight > 1.0f)
             weight = 1.0f;
-        float signal = madd(m->scale, t[n], offset) * pwr;
+        float signal = madd(m->scale, t[whole], offset) * pwr;
         value = madd(rmd * weight, signal, value);
     }
     return value;
 }
 
-static float noise_musgrave_ridged_multi_fractal(const noise_mode *m, const float *t, float H,
-                                                 float lacunarity, float octaves, float offset,
-                                                 float gain)
+/* No fractional octave; the first octave is evaluated even with no whole one. */
+static float noise_ridged_multi_fractal(const noise_mode *m, const float *t, int whole,
+                                        float rough, float offset, float gain)
 {
-    int n = (int)octaves;
-    float pwHL = powf(lacunarity, -H), pwr = pwHL;
+    float pwr = rough;
     float signal = offset - fabsf(m->scale * t[0]);
     signal *= signal;
     float value = signal, weight = 1.0f;
-    for (int i = 1; i < n; i++) {
+    for (int i = 1; i < whole; i++) {
         weight = clampf(signal * gain, 0.0f, 1.0f);
         signal = offset - fabsf(m->scale * t[i]);
         signal *= signal;
         signal *= weight;
         value = madd(signal, pwr, value);
-        pwr *= pwHL;
+        pwr *= rough;
     }
     return value;
 }
@@ -245,34 +168,25 @@ static float noise_musgrave_ridged_multi_fractal(const noise_mode *m, const floa
 float fractal_value(const noise_node *nn, const noise_inputs *in, const float *t)
 {
     const noise_mode *m = &nn->mode;
-    if (!m->blender3) {
-        switch (nn->type) {
-        case TYPE_MULTIFRACTAL:
-            return noise_multi_fractal(m, t, in->detail, in->roughness);
-        case TYPE_RIDGED:
-            return noise_ridged_multi_fractal(m, t, in->detail, in->roughness, in->offset,
-                                              in->gain);
-        case TYPE_HYBRID:
-            return noise_hybrid_multi_fractal(m, t, in->detail, in->roughness, in->offset,
-                                              in->gain);
-        case TYPE_HETERO:
-            return noise_hetero_terrain(m, t, in->detail, in->roughness, in->offset);
-        default:
-            return noise_fbm(m, t, in->detail, in->roughness, nn->normalize);
-        }
-    }
-    if (!nn->as_musgrave)
+    if (!m->blender3 && nn->type == TYPE_FBM)
+        return noise_fbm(m, t, in->detail, in->roughness, nn->normalize);
+    if (m->blender3 && !nn->as_musgrave)
         return fractal_noise(m, t, in->detail, in->roughness);
+    if (m->blender3 && nn->type == TYPE_FBM)
+        return noise_musgrave_fBm(m, t, in->musgrave_H, in->musgrave_lacunarity,
+                                  in->musgrave_octaves);
 
-    float octaves = in->musgrave_octaves, H = in->musgrave_H, lac = in->musgrave_lacunarity;
+    float octaves = m->blender3 ? in->musgrave_octaves : in->detail;
+    int whole = (int)octaves + (m->blender3 ? 0 : 1);
+    float rmd = octaves - floorf(octaves);
+    float rough = m->blender3 ? powf(in->musgrave_lacunarity, -in->musgrave_H) : in->roughness;
     switch (nn->type) {
-    case TYPE_MULTIFRACTAL: return noise_musgrave_multi_fractal(m, t, H, lac, octaves);
+    case TYPE_MULTIFRACTAL: return noise_multi_fractal(m, t, whole, rmd, rough);
     case TYPE_RIDGED:
-        return noise_musgrave_ridged_multi_fractal(m, t, H, lac, octaves, in->offset, in->gain);
+        return noise_ridged_multi_fractal(m, t, whole, rough, in->offset, in->gain);
     case TYPE_HYBRID:
-        return noise_musgrave_hybrid_multi_fractal(m, t, H, lac, octaves, in->offset, in->gain);
-    case TYPE_HETERO: return noise_musgrave_hetero_terrain(m, t, H, lac, octaves, in->offset);
-    default: return noise_musgrave_fBm(m, t, H, lac, octaves);
+        return noise_hybrid_multi_fractal(m, t, whole, rmd, rough, in->offset, in->gain);
+    default: return noise_hetero_terrain(m, t, whole, rmd, rough, in->offset);
     }
 }
 
