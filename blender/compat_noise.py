@@ -1,9 +1,9 @@
 """Build a Blender 4.x Noise Texture node (our JSON vocabulary) for Blender 3.x.
 
 Plain Python, no bpy: blender/import_material.py calls noise_node_for_blender3() when it
-runs in Blender 3.x, and shadergraph/kernels/noise.c computes, in its Blender 3.x mode,
-exactly what Blender 3.4 renders for the node this returns. Keep the two in step
-(musgrave_dimension() here and in noise.c).
+runs in Blender 3.x, and shadergraph/kernels/noise_texture.c computes, in its Blender 3.x
+mode, exactly what Blender 3.4 renders for the node this returns. Keep the two in step
+(musgrave_dimension() here and in noise_texture.c).
 
 What Blender 3.4 has:
 - ShaderNodeTexNoise: normalized fBM only, lacunarity fixed at 2, Roughness clamped to
@@ -65,7 +65,7 @@ def _f32(x):
 
 
 def musgrave_dimension(roughness, lacunarity):
-    """The Musgrave Dimension H with lacunarity^-H == roughness (noise.c mirrors this)."""
+    """The Musgrave Dimension H with lacunarity^-H == roughness (noise_texture.c mirrors it)."""
     if roughness <= 0.0:
         return 1e30
     if lacunarity == 1.0 or roughness == 1.0:

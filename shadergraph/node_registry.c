@@ -13,7 +13,7 @@
     /* kernels/convert.c */                                                                \
     X(node_type_combine_xyz) X(node_type_separate_xyz) X(node_type_combine_color)          \
     X(node_type_separate_color) X(node_type_mapping)                                       \
-    /* kernels/noise.c */                                                                  \
+    /* kernels/noise_texture.c, kernels/white_noise.c */                                   \
     X(node_type_tex_noise) X(node_type_tex_white_noise)                                    \
     /* kernels/voronoi.c */                                                                \
     X(node_type_tex_voronoi)                                                               \

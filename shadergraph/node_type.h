@@ -1,12 +1,14 @@
 /*
  * Internal to shadergraph: how a node type is described and evaluated.
  *
- * Each node family lives in one file under kernels/ (like Cycles' kernel/svm/): pure
- * scalar functions of the node's inputs, a batch loop over them, and the table that
- * describes the node to the loader and the compiler (its Blender idname, sockets with
- * Blender's identifiers and defaults, enum properties, flags, its role if it is more
- * than a kernel, and its constant folding). The registry in node_registry.c lists every
- * type; nothing else needs to change to add one.
+ * Each node family lives under kernels/ (like Cycles' kernel/svm/), in one file or, as
+ * the noise family, a few sharing an internal header (noise.h); lanes.h is the one SIMD
+ * layer (noise, Voronoi). A node is pure scalar functions of its inputs, a batch loop
+ * over them (whole groups of points side by side in lanes where that pays), and the
+ * table that describes the node to the loader and the compiler (its Blender idname,
+ * sockets with Blender's identifiers and defaults, enum properties, flags, its role if
+ * it is more than a kernel, and its constant folding). The registry in node_registry.c
+ * lists every type; nothing else needs to change to add one.
  */
 #ifndef IMSYNTH_SHADERGRAPH_NODE_TYPE_H
 #define IMSYNTH_SHADERGRAPH_NODE_TYPE_H

@@ -35,11 +35,21 @@ static inline uint32_t float_bits(float f)
     return u;
 }
 
+/* Cycles' floorfrac: floor and fraction; the integer part is what cvttss2si/cvttps2dq
+ * produce, which is INT32_MIN ("integer indefinite") for NaN and anything outside int32
+ * range (Blender 3.4 does not wrap large noise coordinates, so that case is reachable). */
+static inline float floor_frac(float x, int32_t *i)
+{
+    float f = floorf(x);
+    *i = (f >= -2147483648.0f && f < 2147483648.0f) ? (int32_t)f : INT32_MIN;
+    return x - f;
+}
+
 /* ---- Jenkins lookup3 ------------------------------------------------------------- */
 
 /* lookup3's rotate, mix and final as macros, so that one definition serves uint32_t and
  * GCC/Clang vectors of uint32_t alike (the operators are the same): the scalar hashes
- * below and the 8-lane ones of noise.c and voronoi.c. Arguments are plain variables;
+ * below and the lane ones of lanes.h. Arguments are plain variables;
  * they are evaluated more than once. */
 #define HASH_ROT(x, k) (((x) << (k)) | ((x) >> (32 - (k))))
 
@@ -64,45 +74,51 @@ static inline uint32_t float_bits(float f)
         c ^= b; c -= HASH_ROT(b, 24);                                                       \
     } while (0)
 
-static inline uint32_t hash_uint(uint32_t kx)
-{
-    uint32_t a, b, c;
-    a = b = c = 0xdeadbeefu + (1u << 2) + 13u;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return c;
-}
-static inline uint32_t hash_uint2(uint32_t kx, uint32_t ky)
-{
-    uint32_t a, b, c;
-    a = b = c = 0xdeadbeefu + (2u << 2) + 13u;
-    b += ky;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return c;
-}
-static inline uint32_t hash_uint3(uint32_t kx, uint32_t ky, uint32_t kz)
-{
-    uint32_t a, b, c;
-    a = b = c = 0xdeadbeefu + (3u << 2) + 13u;
-    c += kz;
-    b += ky;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return c;
-}
-static inline uint32_t hash_uint4(uint32_t kx, uint32_t ky, uint32_t kz, uint32_t kw)
-{
-    uint32_t a, b, c;
-    a = b = c = 0xdeadbeefu + (4u << 2) + 13u;
-    a += kx;
-    b += ky;
-    c += kz;
-    HASH_MIX(a, b, c);
-    a += kw;
-    HASH_FINAL(a, b, c);
-    return c;
-}
+/* hash_uint .. hash_uint4: lookup3 of 1 to 4 words, seeded as Cycles seeds it. Defined
+ * by a macro so that the scalar functions here and the lane ones of lanes.h are one text
+ * over two types (T is uint32_t or a vector of it; (T){0} + x broadcasts x). */
+#define LOOKUP3_HASHES(QUALIFIER, T, hash1, hash2, hash3, hash4)                          \
+    QUALIFIER T hash1(T kx)                                                                \
+    {                                                                                      \
+        T a, b, c;                                                                         \
+        a = b = c = (T){0} + (0xdeadbeefu + (1u << 2) + 13u);                              \
+        a += kx;                                                                           \
+        HASH_FINAL(a, b, c);                                                               \
+        return c;                                                                          \
+    }                                                                                      \
+    QUALIFIER T hash2(T kx, T ky)                                                          \
+    {                                                                                      \
+        T a, b, c;                                                                         \
+        a = b = c = (T){0} + (0xdeadbeefu + (2u << 2) + 13u);                              \
+        b += ky;                                                                           \
+        a += kx;                                                                           \
+        HASH_FINAL(a, b, c);                                                               \
+        return c;                                                                          \
+    }                                                                                      \
+    QUALIFIER T hash3(T kx, T ky, T kz)                                                    \
+    {                                                                                      \
+        T a, b, c;                                                                         \
+        a = b = c = (T){0} + (0xdeadbeefu + (3u << 2) + 13u);                              \
+        c += kz;                                                                           \
+        b += ky;                                                                           \
+        a += kx;                                                                           \
+        HASH_FINAL(a, b, c);                                                               \
+        return c;                                                                          \
+    }                                                                                      \
+    QUALIFIER T hash4(T kx, T ky, T kz, T kw)                                              \
+    {                                                                                      \
+        T a, b, c;                                                                         \
+        a = b = c = (T){0} + (0xdeadbeefu + (4u << 2) + 13u);                              \
+        a += kx;                                                                           \
+        b += ky;                                                                           \
+        c += kz;                                                                           \
+        HASH_MIX(a, b, c);                                                                 \
+        a += kw;                                                                           \
+        HASH_FINAL(a, b, c);                                                               \
+        return c;                                                                          \
+    }
+
+LOOKUP3_HASHES(static inline, uint32_t, hash_uint, hash_uint2, hash_uint3, hash_uint4)
 
 /* A 32-bit value to [0, 1] inclusive, rounding as Cycles does: n * (1 / (2^32 - 1)). */
 static inline float uint_to_unit_float(uint32_t n) { return (float)n * (1.0f / (float)0xFFFFFFFFu); }

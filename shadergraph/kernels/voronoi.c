@@ -32,20 +32,10 @@
  * Blender 3.4 and 4.3.
  */
 #include "shadergraph/node_type.h"
-#include "shadergraph/kernels/kernel_util.h"
+#include "shadergraph/kernels/lanes.h"
 
 #include <float.h>
-#if defined(__AVX__) || defined(__AVX512F__)
-#include <immintrin.h>
-#endif
 #include <stdbool.h>
-
-/* Without AVX, GCC warns (-Wpsabi) that functions taking or returning 32-byte vectors
- * have no agreed ABI; every such function here is static, so no call crosses the file.
- * The pragma must precede the first of them. */
-#if defined(__GNUC__) && !defined(__clang__) && !defined(__AVX__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 
 /* Property indices (order of voronoi_props). */
 enum { PROP_DIMENSIONS, PROP_DISTANCE, PROP_FEATURE, PROP_NORMALIZE };
@@ -272,56 +262,58 @@ static inline vpoint feature_point(const vpoint *cell, const vpoint *offset, flo
     return pt;
 }
 
-/* ---- the hashes of a whole scan window, eight cells at a time ------------------------
+/* ---- the hashes of a whole scan window, LANES cells at a time -----------------------
  *
  * Hashing dominates the cost (3 to 4 lookup3 hashes per cell, 27 to 625 cells), and the
- * cells of a window are independent, so they are hashed in 8-lane vectors (GCC/Clang
- * vector extensions). Lane arithmetic is the scalar arithmetic of kernel_util.h: integer
- * operations, and an unsigned-to-float conversion that rounds once, as the scalar cast
- * does; the results are the same bits. */
-typedef uint32_t u32x8 __attribute__((vector_size(32)));
-typedef float f32x8 __attribute__((vector_size(32)));
+ * cells of a window are independent, so they are hashed LANES cells to a vector
+ * (lanes.h: the same bits as the scalar hashes). */
 
-/* Statement macros rather than functions: a function passing 32-byte vectors by value has
- * no fixed ABI without AVX, which GCC points out; macros keep the code the same on every
- * target. `out` receives the [0, 1] float of each lane's hash. */
-#define UNIT_X8(c) (__builtin_convertvector((c), f32x8) * (1.0f / (float)0xFFFFFFFFu))
-#define HASH_INIT_X8(words) ((u32x8){0} + (0xdeadbeefu + ((words) << 2) + 13u))
-#define HASH1_X8(out, kx)                                                                 \
-    do {                                                                                  \
-        u32x8 a_ = HASH_INIT_X8(1u), b_ = a_, c_ = a_;                                    \
-        a_ += (kx);                                                                       \
-        HASH_FINAL(a_, b_, c_);                                                             \
-        (out) = UNIT_X8(c_);                                                              \
-    } while (0)
-#define HASH2_X8(out, kx, ky)                                                             \
-    do {                                                                                  \
-        u32x8 a_ = HASH_INIT_X8(2u), b_ = a_, c_ = a_;                                    \
-        b_ += (ky);                                                                       \
-        a_ += (kx);                                                                       \
-        HASH_FINAL(a_, b_, c_);                                                             \
-        (out) = UNIT_X8(c_);                                                              \
-    } while (0)
-#define HASH3_X8(out, kx, ky, kz)                                                         \
-    do {                                                                                  \
-        u32x8 a_ = HASH_INIT_X8(3u), b_ = a_, c_ = a_;                                    \
-        c_ += (kz);                                                                       \
-        b_ += (ky);                                                                       \
-        a_ += (kx);                                                                       \
-        HASH_FINAL(a_, b_, c_);                                                             \
-        (out) = UNIT_X8(c_);                                                              \
-    } while (0)
-#define HASH4_X8(out, kx, ky, kz, kw)                                                     \
-    do {                                                                                  \
-        u32x8 a_ = HASH_INIT_X8(4u), b_ = a_, c_ = a_;                                    \
-        a_ += (kx);                                                                       \
-        b_ += (ky);                                                                       \
-        c_ += (kz);                                                                       \
-        HASH_MIX(a_, b_, c_);                                                             \
-        a_ += (kw);                                                                       \
-        HASH_FINAL(a_, b_, c_);                                                             \
-        (out) = UNIT_X8(c_);                                                              \
-    } while (0)
+/* cell_jitter of each lane's cell (keys: the cell coordinates' bits) and, if color is
+ * not NULL, cell_color, which shares the jitter's hashes. */
+LANE_INLINE void lane_cell_hashes(const lane_u *k, int dims, lane_f *j, lane_f *color)
+{
+    const lane_u one = lane_splat_u(float_bits(1.0f)), two = lane_splat_u(float_bits(2.0f));
+#define UNIT(h) lane_uint_to_unit_float(h)
+    switch (dims) {
+    case 1:
+        j[0] = UNIT(lane_hash_uint(k[0]));
+        if (color) {
+            color[0] = j[0];
+            color[1] = UNIT(lane_hash_uint2(k[0], one));
+            color[2] = UNIT(lane_hash_uint2(k[0], two));
+        }
+        break;
+    case 2:
+        j[0] = UNIT(lane_hash_uint2(k[0], k[1]));
+        j[1] = UNIT(lane_hash_uint3(k[0], k[1], one));
+        if (color) {
+            color[0] = j[0];
+            color[1] = j[1];
+            color[2] = UNIT(lane_hash_uint3(k[0], k[1], two));
+        }
+        break;
+    case 3:
+        j[0] = UNIT(lane_hash_uint3(k[0], k[1], k[2]));
+        j[1] = UNIT(lane_hash_uint4(k[0], k[1], k[2], one));
+        j[2] = UNIT(lane_hash_uint4(k[0], k[1], k[2], two));
+        if (color)
+            for (int c = 0; c < 3; c++)
+                color[c] = j[c];
+        break;
+    default:
+        j[0] = UNIT(lane_hash_uint4(k[0], k[1], k[2], k[3]));
+        j[1] = UNIT(lane_hash_uint4(k[3], k[0], k[1], k[2]));
+        j[2] = UNIT(lane_hash_uint4(k[2], k[3], k[0], k[1]));
+        j[3] = UNIT(lane_hash_uint4(k[1], k[2], k[3], k[0]));
+        if (color) {
+            color[0] = j[0];
+            color[1] = UNIT(lane_hash_uint4(k[2], k[0], k[3], k[1]));
+            color[2] = UNIT(lane_hash_uint4(k[3], k[2], k[1], k[0]));
+        }
+        break;
+    }
+#undef UNIT
+}
 
 #define MAX_SCAN 625 /* 5^4: smooth F1 in 4D */
 
@@ -343,7 +335,7 @@ static inline __attribute__((always_inline)) void cell_table_fill(cell_table *t,
     /* The cells' coordinates as hash keys, padded to whole vectors. Nested loops, one
      * per dimension (first coordinate fastest), so that the offsets live in registers:
      * an odometer over an array of counters was most of this function's time. */
-    uint32_t keys[4][MAX_SCAN + 8];
+    uint32_t keys[4][MAX_SCAN + LANES];
     const int side = 2 * radius + 1;
     const int n1 = dims > 1 ? side : 1, n2 = dims > 2 ? side : 1, n3 = dims > 3 ? side : 1;
     int idx = 0;
@@ -368,56 +360,16 @@ static inline __attribute__((always_inline)) void cell_table_fill(cell_table *t,
         }
     }
     for (int c = 0; c < 4; c++)
-        for (int pad = n; pad < n + 8; pad++)
+        for (int pad = n; pad < n + LANES; pad++)
             keys[c][pad] = 0u;
 
-    const u32x8 one = (u32x8){0} + float_bits(1.0f), two = (u32x8){0} + float_bits(2.0f);
-    for (int s = 0; s < n; s += 8) {
-        u32x8 k[4] = {{0}, {0}, {0}, {0}};
+    for (int s = 0; s < n; s += LANES) {
+        lane_u k[4];
         for (int c = 0; c < dims; c++)
             memcpy(&k[c], &keys[c][s], sizeof k[c]);
-        f32x8 j[4], col[3] = {{0}, {0}, {0}};
-        switch (dims) {
-        case 1:
-            HASH1_X8(j[0], k[0]);
-            j[1] = j[2] = j[3] = (f32x8){0};
-            col[0] = j[0];
-            if (with_color) {
-                HASH2_X8(col[1], k[0], one);
-                HASH2_X8(col[2], k[0], two);
-            }
-            break;
-        case 2:
-            HASH2_X8(j[0], k[0], k[1]);
-            HASH3_X8(j[1], k[0], k[1], one);
-            j[2] = j[3] = (f32x8){0};
-            col[0] = j[0];
-            col[1] = j[1];
-            if (with_color)
-                HASH3_X8(col[2], k[0], k[1], two);
-            break;
-        case 3:
-            HASH3_X8(j[0], k[0], k[1], k[2]);
-            HASH4_X8(j[1], k[0], k[1], k[2], one);
-            HASH4_X8(j[2], k[0], k[1], k[2], two);
-            j[3] = (f32x8){0};
-            col[0] = j[0];
-            col[1] = j[1];
-            col[2] = j[2];
-            break;
-        default:
-            HASH4_X8(j[0], k[0], k[1], k[2], k[3]);
-            HASH4_X8(j[1], k[3], k[0], k[1], k[2]);
-            HASH4_X8(j[2], k[2], k[3], k[0], k[1]);
-            HASH4_X8(j[3], k[1], k[2], k[3], k[0]);
-            col[0] = j[0];
-            if (with_color) {
-                HASH4_X8(col[1], k[2], k[0], k[3], k[1]);
-                HASH4_X8(col[2], k[3], k[2], k[1], k[0]);
-            }
-            break;
-        }
-        const int m = n - s < 8 ? n - s : 8;
+        lane_f j[4], col[3];
+        lane_cell_hashes(k, dims, j, with_color ? col : NULL);
+        const int m = n - s < LANES ? n - s : LANES;
         for (int l = 0; l < m; l++) {
             vpoint *pt = &t->point[s + l];
             const vpoint *off = &t->offset[s + l];
@@ -940,173 +892,12 @@ static inline void voronoi_point(const sg_kernel_args *a, const voronoi_params *
 
 /* ---- F1 of many points at once ------------------------------------------------------
  *
- * The batch kernel evaluates F1 for VORONOI_LANES points side by side when every one of
+ * The batch kernel evaluates F1 for LANES points side by side when every one of
  * them needs a single octave (Blender 3.x, or Detail or Roughness 0: the node's
  * defaults). Lane k scans point k's cells in the scalar order with the scalar
  * operations (the same hashes, distance sums in the same order, a strict `<` so the
  * first of equal distances wins), so its results are the bits of voronoi_batch's for
- * that point alone. 16 lanes with AVX-512, else 8; without AVX the compiler lowers the
- * vector types to scalar code. */
-#if defined(__AVX512F__)
-#define VORONOI_LANES 16
-#else
-#define VORONOI_LANES 8
-#endif
-typedef float lane_f __attribute__((vector_size(4 * VORONOI_LANES)));
-typedef uint32_t lane_u __attribute__((vector_size(4 * VORONOI_LANES)));
-
-static inline lane_f lane_splat(float v) { return (lane_f){0} + v; }
-
-static inline lane_f lane_select(lane_u mask, lane_f a, lane_f b)
-{
-    return (lane_f)(((lane_u)a & mask) | ((lane_u)b & ~mask));
-}
-
-static inline lane_f lane_fma(lane_f a, lane_f b, lane_f c)
-{
-#if VORONOI_LANES == 16
-    return (lane_f)_mm512_fmadd_ps((__m512)a, (__m512)b, (__m512)c);
-#elif defined(__FMA__) && defined(__AVX__)
-    return (lane_f)_mm256_fmadd_ps((__m256)a, (__m256)b, (__m256)c);
-#else
-    lane_f r;
-    for (int k = 0; k < VORONOI_LANES; k++)
-        r[k] = fmaf(a[k], b[k], c[k]);
-    return r;
-#endif
-}
-
-static inline lane_f lane_abs(lane_f x) { return (lane_f)((lane_u)x & 0x7fffffffu); }
-
-/* floorf and sqrtf of each lane (both exact operations, so any correct one will do). */
-static inline lane_f lane_floor(lane_f x)
-{
-#if VORONOI_LANES == 16
-    return (lane_f)_mm512_roundscale_ps((__m512)x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-#elif defined(__AVX__)
-    return (lane_f)_mm256_floor_ps((__m256)x);
-#else
-    for (int k = 0; k < VORONOI_LANES; k++)
-        x[k] = floorf(x[k]);
-    return x;
-#endif
-}
-
-static inline lane_f lane_sqrt(lane_f x)
-{
-#if VORONOI_LANES == 16
-    return (lane_f)_mm512_sqrt_ps((__m512)x);
-#elif defined(__AVX__)
-    return (lane_f)_mm256_sqrt_ps((__m256)x);
-#else
-    for (int k = 0; k < VORONOI_LANES; k++)
-        x[k] = sqrtf(x[k]);
-    return x;
-#endif
-}
-
-/* kernel_util.h's lookup3 hashes per lane, mapped to [0, 1] as uint_to_unit_float. */
-static inline lane_u lane_hash_init(uint32_t words)
-{
-    return (lane_u){0} + (0xdeadbeefu + (words << 2) + 13u);
-}
-
-static inline lane_f lane_unit(lane_u c)
-{
-    return __builtin_convertvector(c, lane_f) * (1.0f / (float)0xFFFFFFFFu);
-}
-
-static inline lane_f lane_hash1(lane_u kx)
-{
-    lane_u a = lane_hash_init(1u), b = a, c = a;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return lane_unit(c);
-}
-
-static inline lane_f lane_hash2(lane_u kx, lane_u ky)
-{
-    lane_u a = lane_hash_init(2u), b = a, c = a;
-    b += ky;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return lane_unit(c);
-}
-
-static inline lane_f lane_hash3(lane_u kx, lane_u ky, lane_u kz)
-{
-    lane_u a = lane_hash_init(3u), b = a, c = a;
-    c += kz;
-    b += ky;
-    a += kx;
-    HASH_FINAL(a, b, c);
-    return lane_unit(c);
-}
-
-static inline lane_f lane_hash4(lane_u kx, lane_u ky, lane_u kz, lane_u kw)
-{
-    lane_u a = lane_hash_init(4u), b = a, c = a;
-    a += kx;
-    b += ky;
-    c += kz;
-    HASH_MIX(a, b, c);
-    a += kw;
-    HASH_FINAL(a, b, c);
-    return lane_unit(c);
-}
-
-/* cell_jitter of each lane's cell (keys: the cell coordinates' bits). */
-static inline void lane_jitter(const lane_u *k, int dims, lane_f *j)
-{
-    const lane_u one = (lane_u){0} + float_bits(1.0f), two = (lane_u){0} + float_bits(2.0f);
-    switch (dims) {
-    case 1:
-        j[0] = lane_hash1(k[0]);
-        break;
-    case 2:
-        j[0] = lane_hash2(k[0], k[1]);
-        j[1] = lane_hash3(k[0], k[1], one);
-        break;
-    case 3:
-        j[0] = lane_hash3(k[0], k[1], k[2]);
-        j[1] = lane_hash4(k[0], k[1], k[2], one);
-        j[2] = lane_hash4(k[0], k[1], k[2], two);
-        break;
-    default:
-        j[0] = lane_hash4(k[0], k[1], k[2], k[3]);
-        j[1] = lane_hash4(k[3], k[0], k[1], k[2]);
-        j[2] = lane_hash4(k[2], k[3], k[0], k[1]);
-        j[3] = lane_hash4(k[1], k[2], k[3], k[0]);
-        break;
-    }
-}
-
-/* cell_color of each lane's cell. */
-static inline void lane_cell_color(const lane_u *k, int dims, lane_f *color)
-{
-    const lane_u one = (lane_u){0} + float_bits(1.0f), two = (lane_u){0} + float_bits(2.0f);
-    switch (dims) {
-    case 1:
-        color[0] = lane_hash1(k[0]);
-        color[1] = lane_hash2(k[0], one);
-        color[2] = lane_hash2(k[0], two);
-        break;
-    case 2:
-        color[0] = lane_hash2(k[0], k[1]);
-        color[1] = lane_hash3(k[0], k[1], one);
-        color[2] = lane_hash3(k[0], k[1], two);
-        break;
-    case 3:
-        lane_jitter(k, 3, color);
-        break;
-    default:
-        color[0] = lane_hash4(k[0], k[1], k[2], k[3]);
-        color[1] = lane_hash4(k[2], k[0], k[3], k[1]);
-        color[2] = lane_hash4(k[3], k[2], k[1], k[0]);
-        break;
-    }
-}
-
+ * that point alone (lanes.h). */
 /* voronoi_distance(a, b) per lane; Minkowski's powf one lane at a time. */
 static inline lane_f lane_distance(const lane_f *a, const lane_f *b, int dims, int metric,
                                    const float *exponent)
@@ -1121,7 +912,7 @@ static inline lane_f lane_distance(const lane_f *a, const lane_f *b, int dims, i
         /* dot_n's orders: 2D fuses its first product, 3D and 4D do not. */
         lane_f s;
         if (dims == 2)
-            s = lane_fma(d[0], d[0], d[1] * d[1]);
+            s = lane_madd(d[0], d[0], d[1] * d[1]);
         else if (dims == 3)
             s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         else
@@ -1137,14 +928,13 @@ static inline lane_f lane_distance(const lane_f *a, const lane_f *b, int dims, i
     case METRIC_CHEBYCHEV: {
         lane_f m = lane_abs(d[dims - 1]);
         for (int c = dims - 2; c >= 0; c--) {
-            lane_f x = lane_abs(d[c]);
-            m = lane_select((lane_u)(x > m), x, m);
+            m = lane_maxf(lane_abs(d[c]), m);
         }
         return m;
     }
     case METRIC_MINKOWSKI: {
         lane_f r;
-        for (int k = 0; k < VORONOI_LANES; k++) {
+        for (int k = 0; k < LANES; k++) {
             float s = powf(fabsf(d[0][k]), exponent[k]);
             for (int c = 1; c < dims; c++)
                 s += powf(fabsf(d[c][k]), exponent[k]);
@@ -1180,9 +970,9 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
             offset[c] = lane_splat((float)o[c]);
             key[c] = (lane_u)(cell[c] + offset[c]);
         }
-        lane_jitter(key, dims, j);
+        lane_cell_hashes(key, dims, j, NULL);
         for (int c = 0; c < dims; c++)
-            pt[c] = lane_fma(j[c], randomness, offset[c]);
+            pt[c] = lane_madd(j[c], randomness, offset[c]);
         lane_f d = lane_distance(pt, local, dims, p->metric, exponent);
         lane_u closer = (lane_u)(d < min_distance);
         min_distance = lane_select(closer, d, min_distance);
@@ -1201,8 +991,10 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
         key[c] = (lane_u)(cell[c] + target_offset[c]);
         abs_point[c] = target_point[c] + cell[c];
     }
-    if (color)
-        lane_cell_color(key, dims, color);
+    if (color) {
+        lane_f jitter[4];
+        lane_cell_hashes(key, dims, jitter, color);
+    }
     switch (dims) {
     case 1:
         position[0] = position[1] = position[2] = zero;
@@ -1225,12 +1017,12 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
     }
 }
 
-/* Points first .. first + VORONOI_LANES - 1 of the batch side by side, if they all need
+/* Points first .. first + LANES - 1 of the batch side by side, if they all need
  * F1 with a single octave; false (nothing written) otherwise. What voronoi_batch computes
  * for each of them. */
 static inline bool voronoi_lanes(const sg_kernel_args *a, const voronoi_params *base, int first)
 {
-    enum { L = VORONOI_LANES };
+    enum { L = LANES };
     const int n = a->n, dims = base->dims;
     if (base->feature != FEATURE_F1)
         return false;
@@ -1303,9 +1095,9 @@ static inline void voronoi_batch(const sg_kernel_args *a, int dims)
      * both give the same bits (test_voronoi_batch). A one-point batch, as the pointwise
      * evaluator runs, takes the point path. */
     int i = 0;
-    for (; i + VORONOI_LANES <= n; i += VORONOI_LANES)
+    for (; i + LANES <= n; i += LANES)
         if (!voronoi_lanes(a, &base, i))
-            for (int k = i; k < i + VORONOI_LANES; k++)
+            for (int k = i; k < i + LANES; k++)
                 voronoi_point(a, &base, k);
     for (; i < n; i++)
         voronoi_point(a, &base, i);

@@ -1,6 +1,6 @@
 /*
- * Properties of the Noise and White Noise Texture kernels (kernels/noise.c) that hold
- * without Blender: the Blender 3.x mode (3.4's Noise Texture, and 3.4's Musgrave Texture
+ * Properties of the Noise and White Noise Texture kernels (kernels/noise_texture.c,
+ * white_noise.c) that hold without Blender: the Blender 3.x mode (3.4's Noise Texture, and 3.4's Musgrave Texture
  * for what blender/compat_noise.py translates to it) agrees with the 4.x mode wherever
  * the two versions' algorithms are the same function, and departs from it only where
  * 4.x wraps large coordinates; normalized fBM stays in [0, 1]; Color's red channel is

@@ -1,7 +1,8 @@
 /*
- * The Noise Texture kernel's batch path (kernels/noise.c evaluates whole groups of points
- * side by side in SIMD lanes) against its one-point path (what a one-point batch runs,
- * as the pointwise evaluator does): the same bits for every point, in every dimension
+ * The Noise Texture kernel's batch path (kernels/noise_texture.c evaluates whole groups of
+ * points side by side in SIMD lanes) against its one-point path (what a one-point batch
+ * runs, as the pointwise evaluator does, and where a lone octave point takes the scalar
+ * Perlin of kernels/perlin.c): the same bits for every point, in every dimension
  * count, noise type, Normalize setting and Blender mode, with Fac and Color wanted
  * together or alone.
  *
