@@ -23,7 +23,7 @@
 
 #include "shadergraph/node_type.h"
 
-enum { KC_MAX_POINTS = 64, KC_MAX_SOCKETS = 24 };
+enum { KC_MAX_POINTS = 128, KC_MAX_SOCKETS = 24 };
 
 typedef struct kernel_call {
     const sg_node_type *type;
@@ -118,6 +118,18 @@ static inline void kc_set_prop(kernel_call *c, const char *name, const char *val
     fail_msg("%s.%s has no value %s", c->type->idname, name, value);
 }
 
+/* An enum property by the index of its value (to loop over every value). */
+static inline void kc_set_prop_index(kernel_call *c, const char *name, int v)
+{
+    int p = sg_node_type_prop_index(c->type, name);
+    if (p < 0)
+        fail_msg("%s has no property %s", c->type->idname, name);
+    assert_true(c->type->props[p].kind == SG_PROP_ENUM && v >= 0);
+    for (int k = 0; k <= v; k++)
+        assert_non_null(c->type->props[p].values[k]);
+    c->prop[p] = v;
+}
+
 static inline void kc_want(kernel_call *c, const char *output, bool wanted)
 {
     c->unwanted[kc_output(c, output)] = !wanted;
@@ -140,6 +152,24 @@ static inline void kc_run(kernel_call *c)
     a.in = in;
     a.out = out;
     c->type->kernel(&a);
+}
+
+/* Does Blender show input `identifier` with the call's current properties? */
+static inline bool kc_available(const kernel_call *c, const char *identifier)
+{
+    return sg_socket_available(&c->type->inputs[kc_input(c, identifier)], c->prop);
+}
+
+/* Does Blender show output `identifier` with the call's current properties? */
+static inline bool kc_output_available(const kernel_call *c, const char *identifier)
+{
+    return sg_socket_available(&c->type->outputs[kc_output(c, identifier)], c->prop);
+}
+
+/* The planar array of output `identifier` (width x n floats). */
+static inline const float *kc_outputs(const kernel_call *c, const char *identifier)
+{
+    return c->out[kc_output(c, identifier)];
 }
 
 /* Output `identifier`, point i, channel ch. */

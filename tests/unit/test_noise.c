@@ -16,81 +16,38 @@
 
 #include <cmocka.h>
 
-#include "shadergraph/node_type.h"
+#include "kernel_call.h"
 
 #define NPTS 96
 
-enum { IN_VECTOR, IN_W, IN_SCALE, IN_DETAIL, IN_ROUGHNESS, IN_LACUNARITY, IN_OFFSET,
-       IN_GAIN, IN_DISTORTION, N_IN };
-enum { OUT_FAC, OUT_COLOR, N_OUT };
-enum { P_DIMS, P_TYPE, P_NORMALIZE };
-/* Enum indices in Blender's RNA order. */
-enum { DIMS_1D, DIMS_2D, DIMS_3D, DIMS_4D };
-enum { T_MULTIFRACTAL, T_RIDGED, T_HYBRID, T_FBM, T_HETERO };
+static const char *const dims_names[] = {"1D", "2D", "3D", "4D"};
 
-typedef struct call {
-    const sg_node_type *type;
-    int prop[3];
-    sg_blender_mode blender;
-    float in[N_IN][3 * NPTS];
-    float out[N_OUT][3 * NPTS];
-} call;
-
-/* Default inputs at NPTS scattered points of [-1, 2]^3 (a fixed, irregular pattern). */
-static void call_init(call *c)
+/* The Noise Texture at NPTS scattered points of [-1, 2]^3 (a fixed, irregular pattern),
+ * every other input and property at its default. */
+static void noise_init(kernel_call *c)
 {
-    memset(c, 0, sizeof *c);
-    c->type = sg_node_type_find("ShaderNodeTexNoise");
-    assert_non_null(c->type);
-    assert_int_equal(c->type->n_inputs, N_IN);
-    assert_int_equal(c->type->n_outputs, N_OUT);
-    c->blender = SG_BLENDER_4;
-    for (int p = 0; p < c->type->n_props; p++)
-        c->prop[p] = c->type->props[p].default_value;
-    for (int k = IN_SCALE; k < N_IN; k++)
-        for (int i = 0; i < NPTS; i++)
-            c->in[k][i] = c->type->inputs[k].default_value[0];
+    kc_init(c, "ShaderNodeTexNoise", NPTS);
+    float *v = kc_in(c, "Vector"), *w = kc_in(c, "W");
     for (int i = 0; i < NPTS; i++) {
-        c->in[IN_VECTOR][i] = -1.0f + 0.0311f * (float)i;
-        c->in[IN_VECTOR][NPTS + i] = 2.0f - 0.0297f * (float)((i * 7) % NPTS);
-        c->in[IN_VECTOR][2 * NPTS + i] = 0.25f + 0.0413f * (float)((i * 13) % 41);
-        c->in[IN_W][i] = 0.5f - 0.091f * (float)i;
+        v[i] = -1.0f + 0.0311f * (float)i;
+        v[NPTS + i] = 2.0f - 0.0297f * (float)((i * 7) % NPTS);
+        v[2 * NPTS + i] = 0.25f + 0.0413f * (float)((i * 13) % 41);
+        w[i] = 0.5f - 0.091f * (float)i;
     }
 }
 
-static void set_all(call *c, int input, float v)
-{
-    for (int i = 0; i < NPTS; i++)
-        c->in[input][i] = v;
-}
-
-static void run(call *c, bool want_fac, bool want_color)
-{
-    const float *in[N_IN];
-    float *out[N_OUT];
-    for (int k = 0; k < N_IN; k++)
-        in[k] = c->in[k];
-    out[OUT_FAC] = want_fac ? c->out[OUT_FAC] : NULL;
-    out[OUT_COLOR] = want_color ? c->out[OUT_COLOR] : NULL;
-    sg_kernel_args a;
-    memset(&a, 0, sizeof a);
-    a.n = NPTS;
-    a.blender = c->blender;
-    a.prop = c->prop;
-    a.in = in;
-    a.out = out;
-    c->type->kernel(&a);
-}
+static void set_all(kernel_call *c, const char *input, float v) { kc_set_all(c, input, v, v, v); }
 
 /* Fac of the same node in both modes. */
-static void run_both(call *c, float *fac4, float *fac3)
+static void run_both(kernel_call *c, float *fac4, float *fac3)
 {
+    kc_want(c, "Color", false);
     c->blender = SG_BLENDER_4;
-    run(c, true, false);
-    memcpy(fac4, c->out[OUT_FAC], sizeof(float) * NPTS);
+    kc_run(c);
+    memcpy(fac4, kc_outputs(c, "Fac"), sizeof(float) * NPTS);
     c->blender = SG_BLENDER_3;
-    run(c, true, false);
-    memcpy(fac3, c->out[OUT_FAC], sizeof(float) * NPTS);
+    kc_run(c);
+    memcpy(fac3, kc_outputs(c, "Fac"), sizeof(float) * NPTS);
 }
 
 static float max_abs_diff(const float *a, const float *b)
@@ -106,14 +63,14 @@ static float max_abs_diff(const float *a, const float *b)
 static void test_fbm_versions_agree_below_wrap(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     float f4[NPTS], f3[NPTS];
-    for (int dims = DIMS_1D; dims <= DIMS_4D; dims++) {
-        call_init(&c);
-        c.prop[P_DIMS] = dims;
-        set_all(&c, IN_DETAIL, 4.5f);
-        set_all(&c, IN_ROUGHNESS, 0.6f);
-        set_all(&c, IN_DISTORTION, 0.7f);
+    for (int dims = 0; dims < 4; dims++) {
+        noise_init(&c);
+        kc_set_prop(&c, "noise_dimensions", dims_names[dims]);
+        set_all(&c, "Detail", 4.5f);
+        set_all(&c, "Roughness", 0.6f);
+        set_all(&c, "Distortion", 0.7f);
         run_both(&c, f4, f3);
         /* Last-bit differences only (3.4's SIMD mix rounds differently). */
         assert_true(max_abs_diff(f4, f3) <= 1e-6f);
@@ -125,12 +82,12 @@ static void test_fbm_versions_agree_below_wrap(void **state)
 static void test_fbm_versions_differ_past_wrap(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     float f4[NPTS], f3[NPTS];
-    call_init(&c);
-    set_all(&c, IN_SCALE, 40.0f);
-    set_all(&c, IN_DETAIL, 15.0f);
-    set_all(&c, IN_ROUGHNESS, 0.8f);
+    noise_init(&c);
+    set_all(&c, "Scale", 40.0f);
+    set_all(&c, "Detail", 15.0f);
+    set_all(&c, "Roughness", 0.8f);
     run_both(&c, f4, f3);
     assert_true(max_abs_diff(f4, f3) > 1e-4f);
 }
@@ -141,27 +98,28 @@ static void test_fbm_versions_differ_past_wrap(void **state)
 static void test_musgrave_translation_matches_4x(void **state)
 {
     (void)state;
-    static const int types[] = {T_MULTIFRACTAL, T_RIDGED, T_HYBRID, T_HETERO, T_FBM};
+    static const char *const types[] = {"MULTIFRACTAL", "RIDGED_MULTIFRACTAL", "HYBRID_MULTIFRACTAL",
+                                        "HETERO_TERRAIN", "FBM"};
     static const float details[] = {0.0f, 1.0f, 3.5f, 14.0f};
-    call c;
+    kernel_call c;
     float f4[NPTS], f3[NPTS];
     for (size_t t = 0; t < sizeof types / sizeof types[0]; t++)
         for (size_t d = 0; d < sizeof details / sizeof details[0]; d++) {
-            call_init(&c);
-            c.prop[P_TYPE] = types[t];
-            c.prop[P_NORMALIZE] = 0; /* fBM: the unnormalized one is a Musgrave fBM */
-            set_all(&c, IN_SCALE, 1.5f);
-            set_all(&c, IN_DETAIL, details[d]);
-            set_all(&c, IN_ROUGHNESS, 0.5f);
-            set_all(&c, IN_OFFSET, 0.8f);
-            set_all(&c, IN_GAIN, 1.7f);
+            noise_init(&c);
+            kc_set_prop(&c, "noise_type", types[t]);
+            kc_set_prop(&c, "normalize", "false"); /* fBM: the unnormalized one is a Musgrave fBM */
+            set_all(&c, "Scale", 1.5f);
+            set_all(&c, "Detail", details[d]);
+            set_all(&c, "Roughness", 0.5f);
+            set_all(&c, "Offset", 0.8f);
+            set_all(&c, "Gain", 1.7f);
             run_both(&c, f4, f3);
             /* Not bit-identical: 3.4's SIMD Perlin interpolates as t*b + (1-t)*a, 4.x as
              * a + t*(b-a), a last-bit difference per octave. A wrong Detail offset or
              * Dimension would be off by ~0.1. */
             for (int i = 0; i < NPTS; i++)
                 if (fabsf(f4[i] - f3[i]) > 1e-5f * fmaxf(1.0f, fabsf(f4[i])))
-                    fail_msg("type %d detail %g point %d: 4.x %.9g, 3.x %.9g", types[t],
+                    fail_msg("type %s detail %g point %d: 4.x %.9g, 3.x %.9g", types[t],
                              (double)details[d], i, (double)f4[i], (double)f3[i]);
         }
 }
@@ -171,20 +129,21 @@ static void test_normalized_fbm_in_unit_range(void **state)
     (void)state;
     static const float detail[] = {0.0f, 2.5f, 15.0f};
     static const float rough[] = {0.0f, 0.5f, 1.0f};
-    call c;
+    kernel_call c;
     for (int b = 0; b < 2; b++)
         for (int d = 0; d < 3; d++)
             for (int r = 0; r < 3; r++) {
-                call_init(&c);
+                noise_init(&c);
                 c.blender = b ? SG_BLENDER_3 : SG_BLENDER_4;
-                set_all(&c, IN_DETAIL, detail[d]);
-                set_all(&c, IN_ROUGHNESS, rough[r]);
-                run(&c, true, true);
+                set_all(&c, "Detail", detail[d]);
+                set_all(&c, "Roughness", rough[r]);
+                kc_run(&c);
                 for (int i = 0; i < NPTS; i++) {
-                    assert_true(c.out[OUT_FAC][i] >= 0.0f && c.out[OUT_FAC][i] <= 1.0f);
-                    assert_true(c.out[OUT_COLOR][i] == c.out[OUT_FAC][i]);
+                    float fac = kc_out(&c, "Fac", i, 0);
+                    assert_true(fac >= 0.0f && fac <= 1.0f);
+                    assert_true(kc_out(&c, "Color", i, 0) == fac);
                     for (int k = 1; k < 3; k++) {
-                        float v = c.out[OUT_COLOR][k * NPTS + i];
+                        float v = kc_out(&c, "Color", i, k);
                         assert_true(v >= 0.0f && v <= 1.0f);
                     }
                 }
@@ -196,17 +155,20 @@ static void test_normalized_fbm_in_unit_range(void **state)
 static void test_outputs_optional(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     float fac_alone[NPTS];
-    call_init(&c);
-    c.prop[P_TYPE] = T_HYBRID;
-    set_all(&c, IN_DISTORTION, 1.5f);
-    run(&c, true, false);
-    memcpy(fac_alone, c.out[OUT_FAC], sizeof fac_alone);
+    noise_init(&c);
+    kc_set_prop(&c, "noise_type", "HYBRID_MULTIFRACTAL");
+    set_all(&c, "Distortion", 1.5f);
+    kc_want(&c, "Color", false);
+    kc_run(&c);
+    memcpy(fac_alone, kc_outputs(&c, "Fac"), sizeof fac_alone);
     memset(c.out, 0, sizeof c.out);
-    run(&c, false, true);
+    kc_want(&c, "Color", true);
+    kc_want(&c, "Fac", false);
+    kc_run(&c);
     for (int i = 0; i < NPTS; i++)
-        assert_true(c.out[OUT_FAC][i] == 0.0f && c.out[OUT_COLOR][i] == fac_alone[i]);
+        assert_true(kc_out(&c, "Fac", i, 0) == 0.0f && kc_out(&c, "Color", i, 0) == fac_alone[i]);
 }
 
 /* Coordinates beyond int32: 3.4 truncates the cell index to INT32_MIN with a zero
@@ -215,11 +177,11 @@ static void test_outputs_optional(void **state)
 static void test_huge_coordinates(void **state)
 {
     (void)state;
-    call c;
+    kernel_call c;
     float f4[NPTS], f3[NPTS];
-    call_init(&c);
-    set_all(&c, IN_SCALE, 1e12f);
-    set_all(&c, IN_DETAIL, 1.0f);
+    noise_init(&c);
+    set_all(&c, "Scale", 1e12f);
+    set_all(&c, "Detail", 1.0f);
     run_both(&c, f4, f3);
     float lo = 1.0f, hi = 0.0f;
     for (int i = 0; i < NPTS; i++) {
@@ -236,20 +198,19 @@ static void test_huge_coordinates(void **state)
 static void test_socket_availability(void **state)
 {
     (void)state;
-    const sg_node_type *t = sg_node_type_find("ShaderNodeTexNoise");
-    assert_non_null(t);
-    int prop[3] = {DIMS_3D, T_FBM, 1};
-    assert_false(sg_socket_available(&t->inputs[IN_OFFSET], prop));
-    assert_false(sg_socket_available(&t->inputs[IN_W], prop));
-    assert_true(sg_socket_available(&t->inputs[IN_VECTOR], prop));
-    prop[P_TYPE] = T_HETERO;
-    assert_true(sg_socket_available(&t->inputs[IN_OFFSET], prop));
-    assert_false(sg_socket_available(&t->inputs[IN_GAIN], prop));
-    prop[P_TYPE] = T_RIDGED;
-    assert_true(sg_socket_available(&t->inputs[IN_GAIN], prop));
-    prop[P_DIMS] = DIMS_1D;
-    assert_true(sg_socket_available(&t->inputs[IN_W], prop));
-    assert_false(sg_socket_available(&t->inputs[IN_VECTOR], prop));
+    kernel_call c;
+    kc_init(&c, "ShaderNodeTexNoise", 1); /* 3D fBM, normalized */
+    assert_false(kc_available(&c, "Offset"));
+    assert_false(kc_available(&c, "W"));
+    assert_true(kc_available(&c, "Vector"));
+    kc_set_prop(&c, "noise_type", "HETERO_TERRAIN");
+    assert_true(kc_available(&c, "Offset"));
+    assert_false(kc_available(&c, "Gain"));
+    kc_set_prop(&c, "noise_type", "RIDGED_MULTIFRACTAL");
+    assert_true(kc_available(&c, "Gain"));
+    kc_set_prop(&c, "noise_dimensions", "1D");
+    assert_true(kc_available(&c, "W"));
+    assert_false(kc_available(&c, "Vector"));
 }
 
 /* White Noise: Color's red channel is Value, everything in [0, 1], each dimension count
@@ -257,35 +218,25 @@ static void test_socket_availability(void **state)
 static void test_white_noise(void **state)
 {
     (void)state;
-    const sg_node_type *t = sg_node_type_find("ShaderNodeTexWhiteNoise");
-    assert_non_null(t);
-    assert_int_equal(t->inputs[0].implicit, SG_IMPLICIT_NONE);
-    float vec[3 * NPTS], w[NPTS], value[4][NPTS], color[3 * NPTS];
-    for (int i = 0; i < NPTS; i++) {
-        vec[i] = 0.37f * (float)i;
-        vec[NPTS + i] = -0.21f * (float)i;
-        vec[2 * NPTS + i] = 1.0f / (float)(i + 1);
-        w[i] = 3.0f - 0.11f * (float)i;
-    }
-    for (int dims = DIMS_1D; dims <= DIMS_4D; dims++) {
-        const float *in[2] = {vec, w};
-        float *out[2] = {value[dims], color};
-        int prop[1] = {dims};
-        sg_kernel_args a;
-        memset(&a, 0, sizeof a);
-        a.n = NPTS;
-        a.blender = SG_BLENDER_4;
-        a.prop = prop;
-        a.in = in;
-        a.out = out;
-        t->kernel(&a);
+    kernel_call c;
+    float value[4][NPTS];
+    for (int dims = 0; dims < 4; dims++) {
+        kc_init(&c, "ShaderNodeTexWhiteNoise", NPTS);
+        assert_int_equal(c.type->inputs[kc_input(&c, "Vector")].implicit, SG_IMPLICIT_NONE);
+        kc_set_prop(&c, "noise_dimensions", dims_names[dims]);
         for (int i = 0; i < NPTS; i++) {
-            assert_true(color[i] == value[dims][i]);
+            kc_set(&c, "Vector", i, 0.37f * (float)i, -0.21f * (float)i, 1.0f / (float)(i + 1));
+            kc_set(&c, "W", i, 3.0f - 0.11f * (float)i, 0, 0);
+        }
+        kc_run(&c);
+        memcpy(value[dims], kc_outputs(&c, "Value"), sizeof value[dims]);
+        for (int i = 0; i < NPTS; i++) {
+            assert_true(kc_out(&c, "Color", i, 0) == value[dims][i]);
             for (int k = 0; k < 3; k++)
-                assert_true(color[k * NPTS + i] >= 0.0f && color[k * NPTS + i] <= 1.0f);
+                assert_true(kc_out(&c, "Color", i, k) >= 0.0f && kc_out(&c, "Color", i, k) <= 1.0f);
         }
     }
-    for (int d = DIMS_1D; d < DIMS_4D; d++)
+    for (int d = 0; d < 3; d++)
         assert_true(max_abs_diff(value[d], value[d + 1]) > 0.1f);
 }
 

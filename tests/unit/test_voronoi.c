@@ -13,62 +13,25 @@
 
 #include <cmocka.h>
 
-#include "shadergraph/node_type.h"
+#include "kernel_call.h"
 
 #define NPTS 64
 
-enum { IN_VECTOR, IN_W, IN_SCALE, IN_DETAIL, IN_ROUGHNESS, IN_LACUNARITY, IN_SMOOTHNESS,
-       IN_EXPONENT, IN_RANDOMNESS, N_IN };
-enum { OUT_DISTANCE, OUT_COLOR, OUT_POSITION, OUT_W, OUT_RADIUS, N_OUT };
-enum { P_DIMS, P_METRIC, P_FEATURE, P_NORMALIZE };
-
-typedef struct call {
-    const sg_node_type *type;
-    int prop[4];
-    sg_blender_mode blender;
-    float in[N_IN][3 * NPTS];
-    float out[N_OUT][3 * NPTS];
-} call;
-
-/* Default inputs at NPTS scattered points (a fixed, irregular pattern). */
-static void call_init(call *c)
+/* The Voronoi Texture at NPTS scattered points (a fixed, irregular pattern), every other
+ * input and property at its default. */
+static void voronoi_init(kernel_call *c)
 {
-    memset(c, 0, sizeof *c);
-    c->type = sg_node_type_find("ShaderNodeTexVoronoi");
-    assert_non_null(c->type);
-    assert_int_equal(c->type->n_inputs, N_IN);
-    assert_int_equal(c->type->n_outputs, N_OUT);
-    c->blender = SG_BLENDER_4;
-    for (int p = 0; p < c->type->n_props; p++)
-        c->prop[p] = c->type->props[p].default_value;
-    for (int k = IN_SCALE; k < N_IN; k++)
-        for (int i = 0; i < NPTS; i++)
-            c->in[k][i] = c->type->inputs[k].default_value[0];
+    kc_init(c, "ShaderNodeTexVoronoi", NPTS);
+    float *v = kc_in(c, "Vector"), *w = kc_in(c, "W");
     for (int i = 0; i < NPTS; i++) {
-        c->in[IN_VECTOR][i] = -1.3f + 0.173f * (float)i;
-        c->in[IN_VECTOR][NPTS + i] = 0.9f - 0.061f * (float)((i * 7) % 31);
-        c->in[IN_VECTOR][2 * NPTS + i] = 0.25f + 0.037f * (float)((i * 13) % 17);
-        c->in[IN_W][i] = 0.5f - 0.091f * (float)i;
+        v[i] = -1.3f + 0.173f * (float)i;
+        v[NPTS + i] = 0.9f - 0.061f * (float)((i * 7) % 31);
+        v[2 * NPTS + i] = 0.25f + 0.037f * (float)((i * 13) % 17);
+        w[i] = 0.5f - 0.091f * (float)i;
     }
 }
 
-static void set_all(call *c, int input, float v)
-{
-    for (int i = 0; i < NPTS; i++)
-        c->in[input][i] = v;
-}
-
-static void run(call *c)
-{
-    const float *in[N_IN];
-    float *out[N_OUT];
-    for (int k = 0; k < N_IN; k++)
-        in[k] = c->in[k];
-    for (int k = 0; k < N_OUT; k++)
-        out[k] = c->out[k];
-    sg_kernel_args a = {.n = NPTS, .blender = c->blender, .prop = c->prop, .in = in, .out = out};
-    c->type->kernel(&a);
-}
+static void set_all(kernel_call *c, const char *input, float v) { kc_set_all(c, input, v, v, v); }
 
 static void test_f1_not_above_f2(void **state)
 {
@@ -76,18 +39,18 @@ static void test_f1_not_above_f2(void **state)
     for (int mode = 0; mode < 2; mode++)
         for (int dims = 0; dims < 4; dims++)
             for (int metric = 0; metric < 4; metric++) {
-                call f1, f2;
-                call_init(&f1);
+                kernel_call f1, f2;
+                voronoi_init(&f1);
                 f1.blender = mode ? SG_BLENDER_3 : SG_BLENDER_4;
-                f1.prop[P_DIMS] = dims;
-                f1.prop[P_METRIC] = metric;
-                set_all(&f1, IN_EXPONENT, 1.7f);
+                kc_set_prop_index(&f1, "voronoi_dimensions", dims);
+                kc_set_prop_index(&f1, "distance", metric);
+                set_all(&f1, "Exponent", 1.7f);
                 f2 = f1;
-                f2.prop[P_FEATURE] = 1; /* F2 */
-                run(&f1);
-                run(&f2);
+                kc_set_prop(&f2, "feature", "F2");
+                kc_run(&f1);
+                kc_run(&f2);
                 for (int i = 0; i < NPTS; i++)
-                    assert_true(f1.out[OUT_DISTANCE][i] <= f2.out[OUT_DISTANCE][i]);
+                    assert_true(kc_out(&f1, "Distance", i, 0) <= kc_out(&f2, "Distance", i, 0));
             }
 }
 
@@ -96,19 +59,19 @@ static void test_f1_not_above_f2(void **state)
 static void test_lattice_at_randomness_0(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c);
-    set_all(&c, IN_RANDOMNESS, 0.0f);
-    set_all(&c, IN_SCALE, 2.0f);
+    kernel_call c;
+    voronoi_init(&c);
+    set_all(&c, "Randomness", 0.0f);
+    set_all(&c, "Scale", 2.0f);
+    float *v = kc_in(&c, "Vector");
     for (int i = 0; i < NPTS; i++)
         for (int d = 0; d < 3; d++)
-            c.in[IN_VECTOR][d * NPTS + i] = 0.5f * (float)((i * (d + 3)) % 11 - 5);
-    run(&c);
+            v[d * NPTS + i] = 0.5f * (float)((i * (d + 3)) % 11 - 5);
+    kc_run(&c);
     for (int i = 0; i < NPTS; i++) {
-        assert_float_equal(c.out[OUT_DISTANCE][i], 0.0f, 0.0f);
+        assert_float_equal(kc_out(&c, "Distance", i, 0), 0.0f, 0.0f);
         for (int d = 0; d < 3; d++)
-            assert_float_equal(c.out[OUT_POSITION][d * NPTS + i], c.in[IN_VECTOR][d * NPTS + i],
-                               0.0f);
+            assert_float_equal(kc_out(&c, "Position", i, d), v[d * NPTS + i], 0.0f);
     }
 }
 
@@ -119,18 +82,18 @@ static void test_normalize_divisor(void **state)
 {
     (void)state;
     for (int feature = 0; feature < 2; feature++) {
-        call plain, norm;
-        call_init(&plain);
-        plain.prop[P_FEATURE] = feature;
-        set_all(&plain, IN_RANDOMNESS, 0.6f);
+        kernel_call plain, norm;
+        voronoi_init(&plain);
+        kc_set_prop_index(&plain, "feature", feature);
+        set_all(&plain, "Randomness", 0.6f);
         norm = plain;
-        norm.prop[P_NORMALIZE] = 1;
-        run(&plain);
-        run(&norm);
+        kc_set_prop(&norm, "normalize", "true");
+        kc_run(&plain);
+        kc_run(&norm);
         const float max_distance = sqrtf(3.0f) * 0.8f * (feature ? 2.0f : 1.0f);
         for (int i = 0; i < NPTS; i++)
-            assert_float_equal(norm.out[OUT_DISTANCE][i] * max_distance,
-                               plain.out[OUT_DISTANCE][i], 1e-6);
+            assert_float_equal(kc_out(&norm, "Distance", i, 0) * max_distance,
+                               kc_out(&plain, "Distance", i, 0), 1e-6);
     }
 }
 
@@ -140,23 +103,23 @@ static void test_3x_ignores_octaves(void **state)
 {
     (void)state;
     for (int feature = 0; feature < 4; feature++) {
-        call base, oct, oct4;
-        call_init(&base);
+        kernel_call base, oct, oct4;
+        voronoi_init(&base);
         base.blender = SG_BLENDER_3;
-        base.prop[P_FEATURE] = feature;
+        kc_set_prop_index(&base, "feature", feature);
         oct = base;
-        set_all(&oct, IN_DETAIL, 3.5f);
-        set_all(&oct, IN_ROUGHNESS, 0.8f);
-        set_all(&oct, IN_LACUNARITY, 2.5f);
-        oct.prop[P_NORMALIZE] = 1;
+        set_all(&oct, "Detail", 3.5f);
+        set_all(&oct, "Roughness", 0.8f);
+        set_all(&oct, "Lacunarity", 2.5f);
+        kc_set_prop(&oct, "normalize", "true");
         oct4 = oct;
         oct4.blender = SG_BLENDER_4;
-        run(&base);
-        run(&oct);
-        run(&oct4);
+        kc_run(&base);
+        kc_run(&oct);
+        kc_run(&oct4);
         assert_memory_equal(base.out, oct.out, sizeof base.out);
-        assert_memory_not_equal(base.out[OUT_DISTANCE], oct4.out[OUT_DISTANCE],
-                                sizeof base.out[OUT_DISTANCE]);
+        assert_memory_not_equal(kc_outputs(&base, "Distance"), kc_outputs(&oct4, "Distance"),
+                                NPTS * sizeof(float));
     }
 }
 
@@ -165,18 +128,18 @@ static void test_3x_ignores_octaves(void **state)
 static void test_search_start(void **state)
 {
     (void)state;
-    call c3, c4;
-    call_init(&c3);
-    c3.prop[P_METRIC] = 3;
-    set_all(&c3, IN_EXPONENT, 0.05f);
+    kernel_call c3, c4;
+    voronoi_init(&c3);
+    kc_set_prop(&c3, "distance", "MINKOWSKI");
+    set_all(&c3, "Exponent", 0.05f);
     c3.blender = SG_BLENDER_3;
     c4 = c3;
     c4.blender = SG_BLENDER_4;
-    run(&c3);
-    run(&c4);
+    kc_run(&c3);
+    kc_run(&c4);
     for (int i = 0; i < NPTS; i++) {
-        assert_float_equal(c3.out[OUT_DISTANCE][i], 8.0f, 0.0f);
-        assert_true(c4.out[OUT_DISTANCE][i] > 8.0f);
+        assert_float_equal(kc_out(&c3, "Distance", i, 0), 8.0f, 0.0f);
+        assert_true(kc_out(&c4, "Distance", i, 0) > 8.0f);
     }
 }
 
@@ -184,13 +147,13 @@ static void test_search_start(void **state)
 static void test_smoothness_0_is_f1(void **state)
 {
     (void)state;
-    call f1, smooth;
-    call_init(&f1);
+    kernel_call f1, smooth;
+    voronoi_init(&f1);
     smooth = f1;
-    smooth.prop[P_FEATURE] = 2;
-    set_all(&smooth, IN_SMOOTHNESS, 0.0f);
-    run(&f1);
-    run(&smooth);
+    kc_set_prop(&smooth, "feature", "SMOOTH_F1");
+    set_all(&smooth, "Smoothness", 0.0f);
+    kc_run(&f1);
+    kc_run(&smooth);
     assert_memory_equal(f1.out, smooth.out, sizeof f1.out);
 }
 
@@ -198,50 +161,50 @@ static void test_smoothness_0_is_f1(void **state)
 static void test_null_outputs(void **state)
 {
     (void)state;
-    call c;
-    call_init(&c);
-    c.prop[P_FEATURE] = 4; /* n-sphere radius */
-    const float *in[N_IN];
-    float *out[N_OUT] = {NULL, NULL, NULL, NULL, c.out[OUT_RADIUS]};
-    for (int k = 0; k < N_IN; k++)
-        in[k] = c.in[k];
-    sg_kernel_args a = {.n = NPTS, .blender = SG_BLENDER_4, .prop = c.prop, .in = in, .out = out};
-    c.type->kernel(&a);
+    kernel_call c;
+    voronoi_init(&c);
+    kc_set_prop(&c, "feature", "N_SPHERE_RADIUS");
+    for (int k = 0; k < c.type->n_outputs; k++)
+        c.unwanted[k] = true;
+    kc_want(&c, "Radius", true);
+    kc_run(&c);
     for (int i = 0; i < NPTS; i++)
-        assert_true(c.out[OUT_RADIUS][i] > 0.0f && c.out[OUT_RADIUS][i] < 1.0f);
+        assert_true(kc_out(&c, "Radius", i, 0) > 0.0f && kc_out(&c, "Radius", i, 0) < 1.0f);
 }
 
-static bool available(const sg_node_type *t, const sg_socket_def *s, int dims, int metric,
-                      int feature)
+/* Input or output `socket` shown for these dimensions, metric and feature (indices)? */
+static bool available(const char *socket, bool output, int dims, int metric, int feature)
 {
-    int prop[4] = {dims, metric, feature, 0};
-    (void)t;
-    return sg_socket_available(s, prop);
+    kernel_call c;
+    kc_init(&c, "ShaderNodeTexVoronoi", 1);
+    kc_set_prop_index(&c, "voronoi_dimensions", dims);
+    kc_set_prop_index(&c, "distance", metric);
+    kc_set_prop_index(&c, "feature", feature);
+    return output ? kc_output_available(&c, socket) : kc_available(&c, socket);
 }
 
-/* Socket availability as Blender 4.3 shows it (bpy: socket.enabled). */
+/* Socket availability as Blender 4.3 shows it (bpy: socket.enabled). Dimensions 0-3 are
+ * 1D-4D, metric 3 Minkowski; features F1, F2, SMOOTH_F1, DISTANCE_TO_EDGE,
+ * N_SPHERE_RADIUS. */
 static void test_availability(void **state)
 {
     (void)state;
-    const sg_node_type *t = sg_node_type_find("ShaderNodeTexVoronoi");
-    assert_non_null(t);
-    const sg_socket_def *in = t->inputs, *out = t->outputs;
-    assert_false(available(t, &in[IN_VECTOR], 0, 0, 0));
-    assert_true(available(t, &in[IN_W], 0, 0, 0));
-    assert_false(available(t, &in[IN_W], 2, 0, 0));
-    assert_true(available(t, &in[IN_W], 3, 0, 0));
-    assert_true(available(t, &in[IN_EXPONENT], 2, 3, 2));
-    assert_false(available(t, &in[IN_EXPONENT], 2, 0, 0));
-    assert_false(available(t, &in[IN_EXPONENT], 2, 3, 3));
-    assert_false(available(t, &in[IN_DETAIL], 2, 0, 4));
-    assert_true(available(t, &in[IN_DETAIL], 2, 0, 3));
-    assert_true(available(t, &in[IN_SMOOTHNESS], 0, 0, 2));
-    assert_false(available(t, &out[OUT_POSITION], 0, 0, 0));
-    assert_true(available(t, &out[OUT_W], 0, 0, 1));
-    assert_false(available(t, &out[OUT_W], 2, 0, 1));
-    assert_false(available(t, &out[OUT_COLOR], 2, 0, 3));
-    assert_true(available(t, &out[OUT_RADIUS], 2, 0, 4));
-    assert_false(available(t, &out[OUT_DISTANCE], 2, 0, 4));
+    assert_false(available("Vector", false, 0, 0, 0));
+    assert_true(available("W", false, 0, 0, 0));
+    assert_false(available("W", false, 2, 0, 0));
+    assert_true(available("W", false, 3, 0, 0));
+    assert_true(available("Exponent", false, 2, 3, 2));
+    assert_false(available("Exponent", false, 2, 0, 0));
+    assert_false(available("Exponent", false, 2, 3, 3));
+    assert_false(available("Detail", false, 2, 0, 4));
+    assert_true(available("Detail", false, 2, 0, 3));
+    assert_true(available("Smoothness", false, 0, 0, 2));
+    assert_false(available("Position", true, 0, 0, 0));
+    assert_true(available("W", true, 0, 0, 1));
+    assert_false(available("W", true, 2, 0, 1));
+    assert_false(available("Color", true, 2, 0, 3));
+    assert_true(available("Radius", true, 2, 0, 4));
+    assert_false(available("Distance", true, 2, 0, 4));
 }
 
 int main(void)
