@@ -59,16 +59,20 @@ static inline void kc_init(kernel_call *c, const char *idname, int n)
 static inline int kc_input(const kernel_call *c, const char *identifier)
 {
     int k = sg_node_type_input_index(c->type, identifier);
-    if (k < 0)
+    if (k < 0) {
         fail_msg("%s has no input %s", c->type->idname, identifier);
+        return 0; /* not reached (fail_msg longjmps); tells the compiler k >= 0 */
+    }
     return k;
 }
 
 static inline int kc_output(const kernel_call *c, const char *identifier)
 {
     int k = sg_node_type_output_index(c->type, identifier);
-    if (k < 0)
+    if (k < 0) {
         fail_msg("%s has no output %s", c->type->idname, identifier);
+        return 0; /* not reached (fail_msg longjmps); tells the compiler k >= 0 */
+    }
     return k;
 }
 
