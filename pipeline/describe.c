@@ -168,6 +168,14 @@ struct pipeline_descriptor {
     descriptor_worker dw;
 };
 
+datagen_descriptor pipeline_descriptor_kind_named(const char *features)
+{
+    return !features                         ? DATAGEN_DESC_NONE
+           : !strcmp(features, "mobilenetv2") ? DATAGEN_DESC_MOBILENETV2_F16
+           : !strcmp(features, "vgg19")       ? DATAGEN_DESC_VGG19_F16
+                                              : DATAGEN_DESC_NONE;
+}
+
 pipeline_descriptor *pipeline_descriptor_create(datagen_descriptor kind, char *err,
                                                 size_t errlen)
 {

@@ -166,6 +166,9 @@ int datagen_run(const datagen_options *o, long long *made, char *err, size_t err
  * layer_offsets lets a Gram distance weigh each tapped layer alike. */
 typedef struct pipeline_descriptor pipeline_descriptor;
 
+/* The kind a dataset config's descriptor.features names ("mobilenetv2", "vgg19"), or
+ * DATAGEN_DESC_NONE for NULL or any other name. */
+datagen_descriptor pipeline_descriptor_kind_named(const char *features);
 /* kind: DATAGEN_DESC_VGG19_F16 or DATAGEN_DESC_MOBILENETV2_F16 (whole descriptor). */
 pipeline_descriptor *pipeline_descriptor_create(datagen_descriptor kind, char *err,
                                                 size_t errlen);

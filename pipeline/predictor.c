@@ -315,9 +315,7 @@ static int read_model_json(predictor *p, const char *path, char *err, size_t err
     }
     p->d = (size_t)feat->valuedouble;
     p->k = (int)comp->valuedouble;
-    p->kind = !strcmp(kind->valuestring, "mobilenetv2") ? DATAGEN_DESC_MOBILENETV2_F16
-              : !strcmp(kind->valuestring, "vgg19")     ? DATAGEN_DESC_VGG19_F16
-                                                        : DATAGEN_DESC_NONE;
+    p->kind = pipeline_descriptor_kind_named(kind->valuestring);
     if (p->kind == DATAGEN_DESC_NONE) {
         pipeline_error(err, errlen, "%s: unknown descriptor \"%s\"", path, kind->valuestring);
         goto done;

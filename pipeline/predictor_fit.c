@@ -237,10 +237,8 @@ static int pca_fit_per_tap(const float *X, size_t n, size_t d, const char *confi
     cJSON *cfg = cJSON_Parse(config);
     const cJSON *feat = cJSON_GetObjectItemCaseSensitive(
         cJSON_GetObjectItemCaseSensitive(cfg, "descriptor"), "features");
-    datagen_descriptor kind = !cJSON_IsString(feat)                    ? DATAGEN_DESC_NONE
-                              : !strcmp(feat->valuestring, "mobilenetv2") ? DATAGEN_DESC_MOBILENETV2_F16
-                              : !strcmp(feat->valuestring, "vgg19")       ? DATAGEN_DESC_VGG19_F16
-                                                                          : DATAGEN_DESC_NONE;
+    datagen_descriptor kind =
+        pipeline_descriptor_kind_named(cJSON_IsString(feat) ? feat->valuestring : NULL);
     cJSON_Delete(cfg);
     if (kind == DATAGEN_DESC_NONE)
         return pipeline_error(msg, len, "per-tap reduction: the dataset's descriptor is unknown");

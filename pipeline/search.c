@@ -48,9 +48,7 @@ static datagen_descriptor dataset_kind(const dataset_info *info)
     int masked = cJSON_GetObjectItemCaseSensitive(d, "mask_sha256") != NULL;
     datagen_descriptor k = DATAGEN_DESC_NONE;
     if (cJSON_IsString(f) && !masked)
-        k = !strcmp(f->valuestring, "mobilenetv2") ? DATAGEN_DESC_MOBILENETV2_F16
-            : !strcmp(f->valuestring, "vgg19")     ? DATAGEN_DESC_VGG19_F16
-                                                   : DATAGEN_DESC_NONE;
+        k = pipeline_descriptor_kind_named(f->valuestring);
     cJSON_Delete(c);
     return k;
 }
