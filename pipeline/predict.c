@@ -406,7 +406,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     double t_start = pipeline_now(), t_stage = t_start;
     double t_describe = 0, t_candidates = 0, t_refine = 0, t_final = 0;
     int rc = -1, exists = 0;
-    char tmp_dir[4096] = "", old_dir[4096] = "", path[4096], graph_buf[4096];
+    /* path is tmp_dir (kept 64 bytes short of full below) and a file name: the extra 64
+     * let the compiler see that no snprintf into path truncates. */
+    char tmp_dir[4096] = "", old_dir[4096] = "", path[4096 + 64], graph_buf[4096];
     char scene_buf[2][4096];
     predictor *pred = NULL;
     image raw = {0}, input = {0}, preview = {0};
