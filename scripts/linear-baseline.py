@@ -12,6 +12,7 @@ input, gamma 1 the plain PCA scores.
 
     imsynth dataset export train.sqlite --npy tr; imsynth dataset export val.sqlite --npy va
     /usr/bin/python3 scripts/linear-baseline.py tr va [--max-id 3488] [--mlp]
+    /usr/bin/python3 scripts/linear-baseline.py all --val-fraction 0.05   # fit-predictor's split
 
 Needs Debian's python3-sklearn (and python3-torch for --mlp): sh scripts/setup-oracles.
 """
@@ -23,9 +24,24 @@ from sklearn.linear_model import Ridge
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def load(d, max_id):
+def mix64(z):
+    """nn_mix64 (nn/batch.c)."""
+    m = (1 << 64) - 1
+    z = ((z ^ (z >> 30)) * 0xbf58476d1ce4e5b9) & m
+    z = ((z ^ (z >> 27)) * 0x94d049bb133111eb) & m
+    return z ^ (z >> 31)
+
+
+def is_validation_id(i, fraction):
+    """fit-predictor's held-out ids (predictor_fit.c, is_validation_id)."""
+    return (mix64(int(i) ^ 0x76616c6964617465) >> 11) * 2.0 ** -53 < fraction
+
+
+def load(d, max_id, val_fraction=None, want_val=False):
     ids = np.load(os.path.join(d, 'ids.npy')).ravel()
     keep = ids < max_id if max_id else np.ones(len(ids), bool)
+    if val_fraction is not None:
+        keep &= np.array([is_validation_id(i, val_fraction) == want_val for i in ids])
     X = np.load(os.path.join(d, 'descriptors.npy'))[keep].astype(np.float32)
     Y = np.load(os.path.join(d, 'params.npy'))[keep]
     A = np.load(os.path.join(d, 'active.npy'))[keep].astype(bool)
@@ -129,7 +145,9 @@ def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('train')
-    ap.add_argument('val')
+    ap.add_argument('val', nargs='?', help='validation rows (default: --val-fraction of train)')
+    ap.add_argument('--val-fraction', type=float, default=0.05,
+                    help="without VAL: hold out fit-predictor's ids (a hash of the id)")
     ap.add_argument('--max-id', type=int, default=0, help='training rows with id < N only')
     ap.add_argument('--model', default=os.path.join(ROOT, 'assets/model'),
                     help='for the parameter names and roles')
@@ -138,8 +156,12 @@ def main():
     m = json.load(open(os.path.join(a.model, 'model.json')))
     names, roles = m['parameters'], m['roles']
     vals = [i for i, r in enumerate(roles) if r in ('value', 'hue')]
-    Xt, Yt, At = load(a.train, a.max_id)
-    Xv, Yv, Av = load(a.val, 0)
+    if a.val:
+        Xt, Yt, At = load(a.train, a.max_id)
+        Xv, Yv, Av = load(a.val, 0)
+    else:
+        Xt, Yt, At = load(a.train, a.max_id, a.val_fraction, False)
+        Xv, Yv, Av = load(a.train, 0, a.val_fraction, True)
     s = np.abs(Xt).mean(0) + 1e-12
     Tt, Tv = np.sign(Xt) * np.log1p(np.abs(Xt) / s), np.sign(Xv) * np.log1p(np.abs(Xv) / s)
     mu, sd = Tt.mean(0), Tt.std(0) + 1e-12
