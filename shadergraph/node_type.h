@@ -130,6 +130,9 @@ typedef enum sg_node_role {
     SG_ROLE_BSDF          /* the surface shader the renderer understands */
 } sg_node_role;
 
+/* The length of a node type's socket or property table (a static array). */
+#define SG_COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
+
 typedef struct sg_node_type {
     const char *idname; /* Blender bl_idname, e.g. "ShaderNodeMath" */
     const sg_socket_def *inputs;

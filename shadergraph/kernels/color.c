@@ -25,7 +25,6 @@
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
-#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 /* ---- the blend modes (Cycles' svm_mix) ------------------------------------------- */
 
@@ -449,9 +448,9 @@ static bool mix_fold(sg_fold *x)
 
 const sg_node_type node_type_mix = {
     "ShaderNodeMix",
-    mix_inputs,  COUNT(mix_inputs),
-    mix_outputs, COUNT(mix_outputs),
-    mix_props,   COUNT(mix_props),
+    mix_inputs,  SG_COUNT(mix_inputs),
+    mix_outputs, SG_COUNT(mix_outputs),
+    mix_props,   SG_COUNT(mix_props),
     mix_kernel,  SG_NODE_FOLD_CONSTANT,
     mix_fold,
 };
@@ -489,9 +488,9 @@ static bool mix_rgb_fold(sg_fold *x)
 
 const sg_node_type node_type_mix_rgb = {
     "ShaderNodeMixRGB",
-    mix_rgb_inputs,  COUNT(mix_rgb_inputs),
-    mix_rgb_outputs, COUNT(mix_rgb_outputs),
-    mix_rgb_props,   COUNT(mix_rgb_props),
+    mix_rgb_inputs,  SG_COUNT(mix_rgb_inputs),
+    mix_rgb_outputs, SG_COUNT(mix_rgb_outputs),
+    mix_rgb_props,   SG_COUNT(mix_rgb_props),
     mix_rgb_kernel,  SG_NODE_FOLD_CONSTANT,
     mix_rgb_fold,
 };
@@ -537,8 +536,8 @@ static const sg_socket_def invert_outputs[] = {
 
 const sg_node_type node_type_invert = {
     "ShaderNodeInvert",
-    invert_inputs,  COUNT(invert_inputs),
-    invert_outputs, COUNT(invert_outputs),
+    invert_inputs,  SG_COUNT(invert_inputs),
+    invert_outputs, SG_COUNT(invert_outputs),
     NULL,           0,
     invert_kernel,  SG_NODE_FOLD_CONSTANT,
     invert_fold,
@@ -890,9 +889,9 @@ static const sg_prop_def color_ramp_props[] = {
 
 const sg_node_type node_type_color_ramp = {
     "ShaderNodeValToRGB",
-    color_ramp_inputs,  COUNT(color_ramp_inputs),
-    color_ramp_outputs, COUNT(color_ramp_outputs),
-    color_ramp_props,   COUNT(color_ramp_props),
+    color_ramp_inputs,  SG_COUNT(color_ramp_inputs),
+    color_ramp_outputs, SG_COUNT(color_ramp_outputs),
+    color_ramp_props,   SG_COUNT(color_ramp_props),
     color_ramp_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
@@ -921,7 +920,7 @@ static const sg_socket_def rgb_outputs[] = {
 };
 
 const sg_node_type node_type_rgb = {
-    "ShaderNodeRGB", NULL, 0, rgb_outputs, COUNT(rgb_outputs), NULL, 0, rgb_kernel, 0,
+    "ShaderNodeRGB", NULL, 0, rgb_outputs, SG_COUNT(rgb_outputs), NULL, 0, rgb_kernel, 0,
     .role = SG_ROLE_CONSTANT,
 };
 
@@ -930,6 +929,6 @@ static const sg_socket_def value_outputs[] = {
 };
 
 const sg_node_type node_type_value = {
-    "ShaderNodeValue", NULL, 0, value_outputs, COUNT(value_outputs), NULL, 0, value_kernel, 0,
+    "ShaderNodeValue", NULL, 0, value_outputs, SG_COUNT(value_outputs), NULL, 0, value_kernel, 0,
     .role = SG_ROLE_CONSTANT,
 };

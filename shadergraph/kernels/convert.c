@@ -17,7 +17,6 @@
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
-#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 /* ---- Combine XYZ / Separate XYZ --------------------------------------------------- */
 
@@ -50,8 +49,8 @@ static const sg_socket_def combine_xyz_outputs[] = {
 
 const sg_node_type node_type_combine_xyz = {
     "ShaderNodeCombineXYZ",
-    combine_xyz_inputs,  COUNT(combine_xyz_inputs),
-    combine_xyz_outputs, COUNT(combine_xyz_outputs),
+    combine_xyz_inputs,  SG_COUNT(combine_xyz_inputs),
+    combine_xyz_outputs, SG_COUNT(combine_xyz_outputs),
     NULL,                0,
     combine_xyz_kernel,  SG_NODE_FOLD_CONSTANT,
 };
@@ -67,8 +66,8 @@ static const sg_socket_def separate_xyz_outputs[] = {
 
 const sg_node_type node_type_separate_xyz = {
     "ShaderNodeSeparateXYZ",
-    separate_xyz_inputs,  COUNT(separate_xyz_inputs),
-    separate_xyz_outputs, COUNT(separate_xyz_outputs),
+    separate_xyz_inputs,  SG_COUNT(separate_xyz_inputs),
+    separate_xyz_outputs, SG_COUNT(separate_xyz_outputs),
     NULL,                 0,
     separate_xyz_kernel,  SG_NODE_FOLD_CONSTANT,
 };
@@ -146,9 +145,9 @@ static const sg_socket_def combine_color_outputs[] = {
 
 const sg_node_type node_type_combine_color = {
     "ShaderNodeCombineColor",
-    combine_color_inputs,  COUNT(combine_color_inputs),
-    combine_color_outputs, COUNT(combine_color_outputs),
-    color_mode_props,      COUNT(color_mode_props),
+    combine_color_inputs,  SG_COUNT(combine_color_inputs),
+    combine_color_outputs, SG_COUNT(combine_color_outputs),
+    color_mode_props,      SG_COUNT(color_mode_props),
     combine_color_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
@@ -163,9 +162,9 @@ static const sg_socket_def separate_color_outputs[] = {
 
 const sg_node_type node_type_separate_color = {
     "ShaderNodeSeparateColor",
-    separate_color_inputs,  COUNT(separate_color_inputs),
-    separate_color_outputs, COUNT(separate_color_outputs),
-    color_mode_props,       COUNT(color_mode_props),
+    separate_color_inputs,  SG_COUNT(separate_color_inputs),
+    separate_color_outputs, SG_COUNT(separate_color_outputs),
+    color_mode_props,       SG_COUNT(color_mode_props),
     separate_color_kernel,  SG_NODE_FOLD_CONSTANT,
 };
 
@@ -301,9 +300,9 @@ static bool mapping_fold(sg_fold *x)
 
 const sg_node_type node_type_mapping = {
     "ShaderNodeMapping",
-    mapping_inputs,  COUNT(mapping_inputs),
-    mapping_outputs, COUNT(mapping_outputs),
-    mapping_props,   COUNT(mapping_props),
+    mapping_inputs,  SG_COUNT(mapping_inputs),
+    mapping_outputs, SG_COUNT(mapping_outputs),
+    mapping_props,   SG_COUNT(mapping_props),
     mapping_kernel,  SG_NODE_FOLD_CONSTANT,
     mapping_fold,
 };

@@ -11,7 +11,6 @@
 #include "shadergraph/kernels/kernel_util.h"
 #include "shadergraph/node_type.h"
 
-#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 /* ---- Texture Coordinate ----------------------------------------------------------- */
 
@@ -74,8 +73,8 @@ static void tex_coord_kernel(const sg_kernel_args *a)
 
 const sg_node_type node_type_tex_coord = {
     .idname = "ShaderNodeTexCoord",
-    .outputs = tex_coord_out, .n_outputs = COUNT(tex_coord_out),
-    .props = tex_coord_props, .n_props = COUNT(tex_coord_props),
+    .outputs = tex_coord_out, .n_outputs = SG_COUNT(tex_coord_out),
+    .props = tex_coord_props, .n_props = SG_COUNT(tex_coord_props),
     .kernel = tex_coord_kernel,
     .flags = SG_NODE_READS_GEOMETRY};
 
@@ -142,9 +141,9 @@ static bool bump_fold(sg_fold *x)
 
 const sg_node_type node_type_bump = {
     .idname = "ShaderNodeBump",
-    .inputs = bump_in, .n_inputs = COUNT(bump_in),
-    .outputs = bump_out, .n_outputs = COUNT(bump_out),
-    .props = bump_props, .n_props = COUNT(bump_props),
+    .inputs = bump_in, .n_inputs = SG_COUNT(bump_in),
+    .outputs = bump_out, .n_outputs = SG_COUNT(bump_out),
+    .props = bump_props, .n_props = SG_COUNT(bump_props),
     .kernel = bump_kernel,
     .flags = SG_NODE_HEIGHT_OFFSETS,
     .fold = bump_fold};

@@ -347,9 +347,9 @@ static bool math_fold(sg_fold *x)
 
 const sg_node_type node_type_math = {
     .idname = "ShaderNodeMath",
-    .inputs = math_inputs, .n_inputs = (int)(sizeof math_inputs / sizeof math_inputs[0]),
-    .outputs = math_outputs, .n_outputs = (int)(sizeof math_outputs / sizeof math_outputs[0]),
-    .props = math_props, .n_props = (int)(sizeof math_props / sizeof math_props[0]),
+    .inputs = math_inputs, .n_inputs = SG_COUNT(math_inputs),
+    .outputs = math_outputs, .n_outputs = SG_COUNT(math_outputs),
+    .props = math_props, .n_props = SG_COUNT(math_props),
     .kernel = math_kernel,
     .flags = SG_NODE_FOLD_CONSTANT,
     .fold = math_fold,
@@ -544,11 +544,11 @@ static bool vector_math_fold(sg_fold *x)
 const sg_node_type node_type_vector_math = {
     .idname = "ShaderNodeVectorMath",
     .inputs = vector_math_inputs,
-    .n_inputs = (int)(sizeof vector_math_inputs / sizeof vector_math_inputs[0]),
+    .n_inputs = SG_COUNT(vector_math_inputs),
     .outputs = vector_math_outputs,
-    .n_outputs = (int)(sizeof vector_math_outputs / sizeof vector_math_outputs[0]),
+    .n_outputs = SG_COUNT(vector_math_outputs),
     .props = vector_math_props,
-    .n_props = (int)(sizeof vector_math_props / sizeof vector_math_props[0]),
+    .n_props = SG_COUNT(vector_math_props),
     .kernel = vector_math_kernel,
     .flags = SG_NODE_FOLD_CONSTANT,
     .fold = vector_math_fold,
@@ -596,11 +596,11 @@ static void clamp_kernel(const sg_kernel_args *a)
 const sg_node_type node_type_clamp = {
     "ShaderNodeClamp",
     clamp_inputs,
-    (int)(sizeof clamp_inputs / sizeof clamp_inputs[0]),
+    SG_COUNT(clamp_inputs),
     clamp_outputs,
-    (int)(sizeof clamp_outputs / sizeof clamp_outputs[0]),
+    SG_COUNT(clamp_outputs),
     clamp_props,
-    (int)(sizeof clamp_props / sizeof clamp_props[0]),
+    SG_COUNT(clamp_props),
     clamp_kernel,
     SG_NODE_FOLD_CONSTANT,
 };
@@ -779,11 +779,11 @@ static void map_range_kernel(const sg_kernel_args *a)
 const sg_node_type node_type_map_range = {
     "ShaderNodeMapRange",
     map_range_inputs,
-    (int)(sizeof map_range_inputs / sizeof map_range_inputs[0]),
+    SG_COUNT(map_range_inputs),
     map_range_outputs,
-    (int)(sizeof map_range_outputs / sizeof map_range_outputs[0]),
+    SG_COUNT(map_range_outputs),
     map_range_props,
-    (int)(sizeof map_range_props / sizeof map_range_props[0]),
+    SG_COUNT(map_range_props),
     map_range_kernel,
     0, /* Cycles folds no Map Range, not even an all-constant one */
 };

@@ -339,11 +339,11 @@ static const sg_prop_def tex_noise_props[] = {
 const sg_node_type node_type_tex_noise = {
     "ShaderNodeTexNoise",
     tex_noise_inputs,
-    (int)(sizeof tex_noise_inputs / sizeof tex_noise_inputs[0]),
+    SG_COUNT(tex_noise_inputs),
     tex_noise_outputs,
-    (int)(sizeof tex_noise_outputs / sizeof tex_noise_outputs[0]),
+    SG_COUNT(tex_noise_outputs),
     tex_noise_props,
-    (int)(sizeof tex_noise_props / sizeof tex_noise_props[0]),
+    SG_COUNT(tex_noise_props),
     tex_noise_kernel,
     0,
 };

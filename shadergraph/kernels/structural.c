@@ -7,7 +7,6 @@
  */
 #include "shadergraph/node_type.h"
 
-#define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 const sg_node_type node_type_group = {
     .idname = "ShaderNodeGroup", .flags = SG_NODE_STRUCTURAL, .role = SG_ROLE_GROUP};
@@ -67,9 +66,9 @@ static const sg_prop_def principled_props[] = {
 };
 const sg_node_type node_type_bsdf_principled = {
     .idname = "ShaderNodeBsdfPrincipled",
-    .inputs = principled_in, .n_inputs = COUNT(principled_in),
+    .inputs = principled_in, .n_inputs = SG_COUNT(principled_in),
     .outputs = principled_out, .n_outputs = 1,
-    .props = principled_props, .n_props = COUNT(principled_props),
+    .props = principled_props, .n_props = SG_COUNT(principled_props),
     .flags = SG_NODE_SINK, .role = SG_ROLE_BSDF};
 
 static const sg_socket_def output_in[] = {
@@ -85,6 +84,6 @@ static const sg_prop_def output_props[] = {
 };
 const sg_node_type node_type_output_material = {
     .idname = "ShaderNodeOutputMaterial",
-    .inputs = output_in, .n_inputs = COUNT(output_in),
-    .props = output_props, .n_props = COUNT(output_props),
+    .inputs = output_in, .n_inputs = SG_COUNT(output_in),
+    .props = output_props, .n_props = SG_COUNT(output_props),
     .flags = SG_NODE_SINK, .role = SG_ROLE_MATERIAL_OUTPUT};

@@ -1183,11 +1183,11 @@ static const sg_prop_def voronoi_props[] = {
 const sg_node_type node_type_tex_voronoi = {
     "ShaderNodeTexVoronoi",
     voronoi_inputs,
-    (int)(sizeof voronoi_inputs / sizeof voronoi_inputs[0]),
+    SG_COUNT(voronoi_inputs),
     voronoi_outputs,
-    (int)(sizeof voronoi_outputs / sizeof voronoi_outputs[0]),
+    SG_COUNT(voronoi_outputs),
     voronoi_props,
-    (int)(sizeof voronoi_props / sizeof voronoi_props[0]),
+    SG_COUNT(voronoi_props),
     voronoi_kernel,
     0,
 };

@@ -84,11 +84,11 @@ static const sg_prop_def tex_white_noise_props[] = {
 const sg_node_type node_type_tex_white_noise = {
     "ShaderNodeTexWhiteNoise",
     tex_white_noise_inputs,
-    (int)(sizeof tex_white_noise_inputs / sizeof tex_white_noise_inputs[0]),
+    SG_COUNT(tex_white_noise_inputs),
     tex_white_noise_outputs,
-    (int)(sizeof tex_white_noise_outputs / sizeof tex_white_noise_outputs[0]),
+    SG_COUNT(tex_white_noise_outputs),
     tex_white_noise_props,
-    (int)(sizeof tex_white_noise_props / sizeof tex_white_noise_props[0]),
+    SG_COUNT(tex_white_noise_props),
     tex_white_noise_kernel,
     0,
 };
