@@ -109,7 +109,8 @@ def main():
 
 
 def report(a, jobs, Z, label, model, first, end):
-    """Two measures per (sample, parameter):
+    """Per (sample, parameter), ratio and snr; per parameter, consistency and confusion
+    (below):
     ratio: |move| / |floor|, Euclidean in this space: is the move bigger than the whole
         change another Pattern Offset makes?
     snr: the move's length over the pattern's noise along the move's own direction, the
@@ -174,11 +175,11 @@ def report(a, jobs, Z, label, model, first, end):
           '%.0f%%; median floor %.3g' % (len(all_r), 100 * np.mean(all_r < 1),
                                        100 * np.mean(all_s < 1), 100 * np.mean(all_s < 2),
                                        np.median(list(floor.values()))))
-    names = sorted(moves)  # the moved parameters from here on
-    x = np.array([np.median(snrs[n]) for n in names])
-    y = np.array([r2.get(n, np.nan) for n in names])
-    for lab, z in (('median snr', x), ('consistency', np.array([consistency[n] for n in names])),
-                   ('confusion', np.array([confusion[n] for n in names]))):
+    moved = sorted(moves)
+    x = np.array([np.median(snrs[n]) for n in moved])
+    y = np.array([r2.get(n, np.nan) for n in moved])
+    for lab, z in (('median snr', x), ('consistency', np.array([consistency[n] for n in moved])),
+                   ('confusion', np.array([confusion[n] for n in moved]))):
         ok = np.isfinite(y) & np.isfinite(z)
         if ok.sum() > 2:
             rz = np.argsort(np.argsort(z[ok])); ry = np.argsort(np.argsort(y[ok]))
