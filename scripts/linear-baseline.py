@@ -8,7 +8,8 @@ validation rows), reduces the descriptors as fit-predictor does (signed log with
 R^2 over the active value parameters with fit-predictor's definition (only rows where the
 parameter is active; SST about the training mean; a hue as the mean R^2 of its cosine and
 sine), for PCA scores scaled by (component sd)^gamma: gamma 0 is fit-predictor's whitened
-input, gamma 1 the plain PCA scores.
+input, gamma 1 the plain PCA scores. Beside them the baselines: the nearest training row by
+whitened-PCA distance (retrieval, as the catalogue does it), a random training row, the mean.
 
     imsynth dataset export train.sqlite --npy tr; imsynth dataset export val.sqlite --npy va
     /usr/bin/python3 scripts/linear-baseline.py tr va [--max-id 3488] [--mlp]
@@ -173,6 +174,19 @@ def main():
           (len(Xt), len(Xv), Xt.shape[1]))
     print('| input | model | median value R^2 |')
     print('|---|---|---:|')
+
+    def copied(rows):  # each validation row gets the parameters of training row rows[k]
+        def pred(i, t, z):
+            y = Yt[rows[Av[:, i]], i]
+            return (np.stack([np.cos(2 * np.pi * y), np.sin(2 * np.pi * y)], 1)
+                    if roles[i] == 'hue' else y)
+        return median_r2(pred, Yt, At, Yv, Av, roles, vals)
+    # |a - b|^2 = |a|^2 - 2 a.b + |b|^2, nearest in the whitened PCA (the catalogue's space)
+    d2 = (Pv ** 2).sum(1)[:, None] - 2 * Pv @ Pt.T + (Pt ** 2).sum(1)[None, :]
+    print('| whitened PCA | nearest training row (retrieval) | %.3f |' % copied(d2.argmin(1)))
+    rng = np.random.default_rng(1)
+    print('| - | a random training row | %.3f |' % copied(rng.integers(0, len(Pt), len(Pv))))
+    print('| - | the training mean | 0 (by definition) |', flush=True)
     for gamma in (0.0, 1.0):
         w = (csd / csd[0]) ** gamma
         Ft, Fv = Pt * w, Pv * w
