@@ -204,52 +204,103 @@ static uint32_t big_endian32(const unsigned char *b)
     return (uint32_t)b[0] << 24 | (uint32_t)b[1] << 16 | (uint32_t)b[2] << 8 | (uint32_t)b[3];
 }
 
-/* A PNG must run, chunk by chunk, to its IEND chunk. Checking this before OIIO reads the
- * file gives a precise message, and keeps truncated PNGs away from OIIO 2.4's reader,
- * which on a short read longjmps (through libpng) past one of its own std::strings and
- * leaks it. Files that do not start with the PNG signature are left to OIIO. */
-static int check_png_complete(const char *path, char *err, size_t errlen)
+/* A PNG must run, chunk by chunk, to its IEND chunk. Checking this before OIIO decodes it
+ * gives a precise message, and keeps truncated PNGs away from OIIO 2.4's reader, which on
+ * a short read longjmps (through libpng) past one of its own std::strings and leaks it.
+ * data[0, size) is the whole file as read. */
+static int check_png_complete(const char *path, const unsigned char *data, size_t size,
+                              char *err, size_t errlen)
+{
+    size_t at = 8, prev_at = 0;
+    char prev_type[5] = "";
+    for (;;) {
+        if (size < 8 || at > size - 8) {
+            if (prev_at > 0 && at > size)
+                set_error(err, errlen, "%s: truncated PNG: the file (%zu bytes) ends inside "
+                          "its '%s' chunk at byte %zu", path, size, prev_type, prev_at);
+            else
+                set_error(err, errlen, "%s: truncated PNG: the file (%zu bytes) ends before "
+                          "its IEND chunk", path, size);
+            return -1;
+        }
+        uint32_t length = big_endian32(data + at);
+        if (length > 0x7fffffffu) {
+            set_error(err, errlen, "%s: corrupt PNG: chunk at byte %zu has length %lu", path,
+                      at, (unsigned long)length);
+            return -1;
+        }
+        if (memcmp(data + at + 4, "IEND", 4) == 0)
+            return 0;
+        /* chunk types are 4 ASCII letters in a valid file; show others as '?' */
+        for (int k = 0; k < 4; k++) {
+            unsigned char c = data[at + 4 + k];
+            prev_type[k] = c >= 32 && c < 127 ? (char)c : '?';
+        }
+        prev_at = at;
+        at += 12 + (size_t)length; /* length, type, data, CRC */
+    }
+}
+
+/* The largest PNG file read: more than any image within IMAGE_MAX_PIXELS can take (16-bit
+ * RGBA, stored uncompressed, is 8 bytes a pixel), so a larger one is refused unread. */
+#define PNG_MAX_FILE_BYTES (IMAGE_MAX_PIXELS * 8 + ((size_t)1 << 24))
+
+/* A PNG is decoded from one copy of the file read into memory, checked whole first. Were
+ * OIIO to read the file itself, a file truncated between the check and the decoding (a
+ * download or copy still being written, or tests/cli/faults.sh) would reach the leaking
+ * path above. Sets *data to the file's bytes (the caller frees them) when the file starts
+ * with the PNG signature, to NULL when it does not; returns -1 with a message on failure. */
+static int read_png_snapshot(const char *path, unsigned char **data, size_t *size, char *err,
+                             size_t errlen)
 {
     static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    *data = NULL;
+    *size = 0;
     FILE *fp = fopen(path, "rb");
     if (!fp) {
         set_error(err, errlen, "%s: %s", path, strerror(errno));
         return -1;
     }
     unsigned char head[8];
+    struct stat st;
     int status = 0;
-    if (fread(head, 1, 8, fp) == 8 && memcmp(head, signature, 8) == 0) {
-        long size = fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
-        long at = 8, prev_at = 0;
-        char prev_type[5] = "";
-        for (;;) {
-            if (fseek(fp, at, SEEK_SET) != 0 || fread(head, 1, 8, fp) != 8) {
-                if (prev_at > 0 && at > size)
-                    set_error(err, errlen, "%s: truncated PNG: the file (%ld bytes) ends "
-                              "inside its '%s' chunk at byte %ld", path, size, prev_type,
-                              prev_at);
-                else
-                    set_error(err, errlen, "%s: truncated PNG: the file (%ld bytes) ends "
-                              "before its IEND chunk", path, size);
-                status = -1;
-                break;
-            }
-            uint32_t length = big_endian32(head);
-            if (length > 0x7fffffffu) {
-                set_error(err, errlen, "%s: corrupt PNG: chunk at byte %ld has length %lu",
-                          path, at, (unsigned long)length);
-                status = -1;
-                break;
-            }
-            if (memcmp(head + 4, "IEND", 4) == 0)
-                break;
-            /* chunk types are 4 ASCII letters in a valid file; show others as '?' */
-            for (int k = 0; k < 4; k++)
-                prev_type[k] = head[4 + k] >= 32 && head[4 + k] < 127 ? (char)head[4 + k] : '?';
-            prev_at = at;
-            at += 12 + (long)length; /* length, type, data, CRC */
-        }
+    if (fread(head, 1, 8, fp) != 8 || memcmp(head, signature, 8) != 0)
+        goto done; /* not a PNG: OIIO reads it from the file */
+    if (fstat(fileno(fp), &st) != 0) {
+        set_error(err, errlen, "%s: %s", path, strerror(errno));
+        status = -1;
+        goto done;
     }
+    if ((uint64_t)st.st_size > PNG_MAX_FILE_BYTES) {
+        set_error(err, errlen, "%s: a PNG of %lld bytes is larger than any image accepted",
+                  path, (long long)st.st_size);
+        status = -1;
+        goto done;
+    }
+    size_t want = (size_t)st.st_size > 8 ? (size_t)st.st_size : 8;
+    unsigned char *buf = malloc(want);
+    if (!buf) {
+        set_error(err, errlen, "%s: out of memory for a PNG of %zu bytes", path, want);
+        status = -1;
+        goto done;
+    }
+    memcpy(buf, head, 8);
+    /* A file that shrinks meanwhile reads short, which the chunk walk reports. */
+    size_t got = 8 + fread(buf + 8, 1, want - 8, fp);
+    if (ferror(fp)) {
+        set_error(err, errlen, "%s: %s", path, strerror(errno));
+        free(buf);
+        status = -1;
+        goto done;
+    }
+    if (check_png_complete(path, buf, got, err, errlen) != 0) {
+        free(buf);
+        status = -1;
+        goto done;
+    }
+    *data = buf;
+    *size = got;
+done:
     fclose(fp);
     return status;
 }
@@ -490,16 +541,22 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
         set_error(err, errlen, "(null): no input path");
         return -1;
     }
+    unsigned char *png = NULL;
+    size_t png_size = 0;
     if (check_readable_file(path, err, errlen) != 0 ||
-        check_png_complete(path, err, errlen) != 0 ||
-        check_exr_header(path, err, errlen) != 0)
+        read_png_snapshot(path, &png, &png_size, err, errlen) != 0)
+        return -1;
+    if (!png && check_exr_header(path, err, errlen) != 0)
         return -1;
 
     char msg[512];
     oiio_image_info info;
-    oiio_reader *reader = oiio_reader_open(path, &info, msg, sizeof msg);
+    oiio_reader *reader = png ? oiio_reader_open_memory(path, "png", png, png_size, &info, msg,
+                                                        sizeof msg)
+                              : oiio_reader_open(path, &info, msg, sizeof msg);
     if (!reader) {
         set_error(err, errlen, "%s: not a readable image: %s", path, msg);
+        free(png);
         return -1;
     }
     int status = -1;
@@ -562,6 +619,7 @@ int image_read(const char *path, image *img, char *err, size_t errlen)
 done:
     free(raw);
     oiio_reader_close(reader);
+    free(png);
     if (status != 0)
         image_free(img);
     return status;

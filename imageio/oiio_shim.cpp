@@ -11,6 +11,7 @@
  */
 #include "imageio/oiio_shim.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <cctype>
@@ -25,7 +26,10 @@ using OIIO::ImageOutput;
 using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
+/* The proxy, when there is one, is declared first so that it outlives the input that
+ * reads through it (members are destroyed in reverse order). */
 struct oiio_reader {
+    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
     std::unique_ptr<ImageInput> input;
 };
 
@@ -66,15 +70,33 @@ static bool says_linear(const ImageSpec &spec)
     return gamma == 1.0f;
 }
 
-extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
-                                         size_t errlen)
+/* Open path, or, when format is given, the in-memory copy of it in data[0, size). */
+static oiio_reader *open_reader(const char *path, const char *format, const void *data,
+                                size_t size, oiio_image_info *info, char *err, size_t errlen)
 {
     try {
         /* Keep PNG/TIFF alpha as stored: OIIO would otherwise premultiply colour by alpha
          * in the file's (sRGB-encoded) space, which cannot be undone exactly. */
         ImageSpec config;
         config.attribute("oiio:UnassociatedAlpha", 1);
-        std::unique_ptr<ImageInput> input = ImageInput::open(path, &config);
+        std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
+        std::unique_ptr<ImageInput> input;
+        if (format) {
+            /* Created by format name: a path need not end in the format's extension. */
+            memory.reset(new OIIO::Filesystem::IOMemReader(data, size));
+            /* open() takes its proxy from the configuration (one passed to create() alone
+             * is dropped there, and the file read from its path after all). */
+            void *proxy = memory.get();
+            config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+            input = ImageInput::create(format, false, &config, memory.get());
+            ImageSpec spec;
+            if (input && !input->open(path, spec, config)) {
+                set_error(err, errlen, pending_errors(input->geterror()));
+                return nullptr;
+            }
+        } else {
+            input = ImageInput::open(path, &config);
+        }
         if (!input) {
             set_error(err, errlen, pending_errors(""));
             return nullptr;
@@ -101,6 +123,7 @@ extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info
         std::snprintf(info->format_name, sizeof info->format_name, "%s", input->format_name());
         oiio_reader *reader = new oiio_reader;
         reader->input = std::move(input);
+        reader->memory = std::move(memory);
         return reader;
     } catch (const std::exception &e) {
         OIIO::geterror();
@@ -110,6 +133,20 @@ extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info
         set_error(err, errlen, "unknown exception in OpenImageIO");
     }
     return nullptr;
+}
+
+extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
+                                         size_t errlen)
+{
+    return open_reader(path, nullptr, nullptr, 0, info, err, errlen);
+}
+
+extern "C" oiio_reader *oiio_reader_open_memory(const char *path, const char *format,
+                                                const void *data, size_t size,
+                                                oiio_image_info *info, char *err,
+                                                size_t errlen)
+{
+    return open_reader(path, format, data, size, info, err, errlen);
 }
 
 extern "C" int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pixels,

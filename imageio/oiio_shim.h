@@ -35,6 +35,12 @@ typedef struct oiio_image_info {
 oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
                               size_t errlen);
 
+/* The same for a file already read into memory, data[0, size), decoded as `format`
+ * ("png", ...); path only names it in messages. data must outlive the reader. */
+oiio_reader *oiio_reader_open_memory(const char *path, const char *format, const void *data,
+                                     size_t size, oiio_image_info *info, char *err,
+                                     size_t errlen);
+
 /* Read channels [0, nchannels) of the whole image into pixels, interleaved, top row first:
  * as uint8_t when as_uint8 (only sensible for 8-bit files), else as float (integer formats
  * scaled to [0,1]). Returns 0, or -1 with a message in err. */
