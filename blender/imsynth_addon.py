@@ -187,7 +187,8 @@ LIGHTS = [
     ("scene", "Point light", "The photo was lit like imsynth's scene: a light above, "
      "off-centre"),
     ("flash", "Flash", "The photo was taken with a flash at the camera"),
-    ("auto", "Try both", "Predict under both lights and keep the better (twice the time)"),
+    ("auto", "Try both", "Score the candidates under both lights and keep the better "
+     "(about 10% more time)"),
 ]
 
 
@@ -209,7 +210,7 @@ class IMSYNTH_OT_material_from_image(bpy.types.Operator):
     filepath: StringProperty(name="Image", subtype="FILE_PATH")
     filter_image: BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
     filter_folder: BoolProperty(default=True, options={"HIDDEN", "SKIP_SAVE"})
-    light: EnumProperty(name="Light", items=LIGHTS, default="scene",
+    light: EnumProperty(name="Light", items=LIGHTS, default="auto",
                         description="How the photo was lit (imsynth predict --light)")
     output_dir: StringProperty(
         name="Output folder", subtype="DIR_PATH", default="",

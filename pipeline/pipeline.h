@@ -575,7 +575,7 @@ typedef struct predict_options {
     refine_options refine;    /* budget 1: the best candidate as it is (default 64) */
     const datagen_preset *search_preset; /* candidates and refinement ("datagen") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
-    predict_light light;      /* where the input's light was: our scene, a flash, or try both */
+    predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */
     double colour_weight;     /* pipeline_refine_loss's (PIPELINE_COLOUR_WEIGHT) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;

@@ -39,24 +39,30 @@ c = ref["curve"]
 assert len(c) == ref["evaluations"] == ref["budget"] == 6, ref
 assert all(b <= a for a, b in zip(c, c[1:])), c
 assert c[0] == ref["start_loss"] and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
+# The default light is auto: every candidate scored in both scenes, the winner the least
+# loss of all (candidate, scene) pairs, refined in its scene.
+assert r["light_asked"] == "auto" and r["light"] in ("scene", "flash"), r["light"]
 chosen = [x for x in r["candidates"] if x["chosen"]]
-assert len(chosen) == 1 and abs(chosen[0]["scene"]["loss"] - ref["start_loss"]) < 1e-12, chosen
-assert min(x["scene"]["loss"] for x in r["candidates"]) == chosen[0]["scene"]["loss"]
+assert len(chosen) == 1 and abs(chosen[0][r["light"]]["loss"] - ref["start_loss"]) < 1e-12, chosen
+losses = [x[s]["loss"] for x in r["candidates"] for s in ("scene", "flash")]
+assert min(losses) == chosen[0][r["light"]]["loss"], losses
 assert 1 <= len(r["candidates"]) <= 4 and r["final"]["material_nodes"] > 0
-assert r["light"] == "scene" and r["renders"] >= 2
+assert r["renders_by_stage"]["candidates"] == 2 * len(r["candidates"]) and r["renders"] >= 2
 PY
 check "report: the chosen candidate is the best scored, the curve never rises" 0 $?
 
-# --light auto: every candidate scored in both scenes; the winner is the least loss of all
-"$imsynth" predict "$input" -o "$tmp/auto" $fast --refine 2 --light auto
-check "predict --light auto" 0 $?
-py - "$tmp/auto/report.json" << 'PY'
+# --light scene fixes the scene: the candidates are rendered in it alone
+"$imsynth" predict "$input" -o "$tmp/scene" $fast --refine 2 --light scene
+check "predict --light scene" 0 $?
+py - "$tmp/scene/report.json" << 'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-assert r["light_asked"] == "auto" and r["light"] in ("scene", "flash"), r["light"]
-losses = [(c[s]["loss"], s) for c in r["candidates"] for s in ("scene", "flash")]
+assert r["light_asked"] == "scene" and r["light"] == "scene", r["light"]
+assert all("flash" not in c for c in r["candidates"]), r["candidates"]
 chosen = [c for c in r["candidates"] if c["chosen"]][0]
-assert min(losses)[0] == chosen[r["light"]]["loss"] == r["refinement"]["start_loss"], losses
+assert min(c["scene"]["loss"] for c in r["candidates"]) == chosen["scene"]["loss"]
+assert chosen["scene"]["loss"] == r["refinement"]["start_loss"]
+assert r["renders_by_stage"]["candidates"] == len(r["candidates"])
 PY
 check "auto: both scenes scored, the least loss wins" 0 $?
 
