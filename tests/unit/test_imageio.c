@@ -487,6 +487,46 @@ static void test_png_round_trip(void **state)
     }
 }
 
+/* A PNG is known by its signature, not its name: the same bytes under a name without .png,
+ * or a wrong one, read to the same pixels (the in-memory decoding is told the format). The
+ * file changing while it is read: test_imageio_race.c. */
+static void test_png_whatever_its_name(void **state)
+{
+    const fixture *f = *state;
+    image img, ref = {0};
+    assert_int_equal(image_alloc(&img, 23, 11, 3), 0);
+    fill_random(&img, 5, 0.0f, 1.0f);
+    char path[256], err[512];
+    path_in(f, "named.png", path, sizeof path);
+    assert_int_equal(image_write_png(path, &img, err, sizeof err), 0);
+    if (image_read(path, &ref, err, sizeof err) != 0)
+        fail_msg("%s", err);
+    size_t n = file_size(path);
+    unsigned char *bytes = malloc(n);
+    assert_non_null(bytes);
+    FILE *fp = fopen(path, "rb");
+    assert_non_null(fp);
+    assert_int_equal(fread(bytes, 1, n, fp), n);
+    fclose(fp);
+    const char *names[] = {"no_extension", "mislabelled.exr", "mislabelled.jpg"};
+    for (size_t k = 0; k < sizeof names / sizeof names[0]; k++) {
+        image back = {0};
+        path_in(f, names[k], path, sizeof path);
+        write_bytes(path, bytes, n);
+        if (image_read(path, &back, err, sizeof err) != 0)
+            fail_msg("%s: %s", names[k], err);
+        assert_int_equal(back.width, ref.width);
+        assert_int_equal(back.height, ref.height);
+        assert_int_equal(back.channels, ref.channels);
+        assert_memory_equal(back.pixels, ref.pixels,
+                            sizeof(float) * 23 * 11 * (size_t)ref.channels);
+        image_free(&back);
+    }
+    free(bytes);
+    image_free(&ref);
+    image_free(&img);
+}
+
 /* A PNG saying gAMA 1.0 is linear: its bytes are divided by 255, not sRGB-decoded; the
  * same bytes without gAMA are decoded. */
 static void test_png_linear_metadata(void **state)
@@ -953,6 +993,7 @@ int main(void)
         cmocka_unit_test(test_exr_half_round_trip),
         cmocka_unit_test(test_exr_metadata),
         cmocka_unit_test(test_png_round_trip),
+        cmocka_unit_test(test_png_whatever_its_name),
         cmocka_unit_test(test_png_linear_metadata),
         cmocka_unit_test(test_grey_alpha_becomes_rgba),
         cmocka_unit_test(test_png_16bit),
