@@ -419,7 +419,11 @@ typedef enum refine_kind {
     REFINE_VALUE,    /* in [0, 1], clamped */
     REFINE_CIRCULAR, /* in [0, 1), 0 and 1 the same (a hue): wrapped */
     REFINE_SELECTOR, /* choices[i] bins; the value is its bin's centre */
-    REFINE_FIXED     /* never moved (Pattern Offset: a seed, not a look) */
+    REFINE_FIXED,    /* never moved (Pattern Offset: a seed, not a look) */
+    REFINE_ZOOM      /* a value that multiplies coordinates far from their origin (a noise's
+                        Scale times Pattern Offset's shift of up to 100): any change of it
+                        also draws a new instance of the pattern, so the loss is rugged along
+                        it at every step size. Clamped like a value. */
 } refine_kind;
 
 typedef struct refine_space {
@@ -428,9 +432,15 @@ typedef struct refine_space {
     const int *choices;      /* n: a selector's number of choices (others ignored) */
 } refine_space;
 
-typedef enum refine_method { REFINE_COORDINATE, REFINE_ES, REFINE_RANDOM, REFINE_N_METHODS } refine_method;
+typedef enum refine_method {
+    REFINE_COORDINATE,
+    REFINE_ES,
+    REFINE_RANDOM,
+    REFINE_ES_SPLIT,
+    REFINE_N_METHODS
+} refine_method;
 extern const char *const refine_method_names[REFINE_N_METHODS];
-/* The method named `name` ("coordinate", "es", "random"), or -1. */
+/* The method named `name` ("coordinate", "es", "random", "es-split"), or -1. */
 int refine_method_parse(const char *name);
 
 typedef struct refine_options {
@@ -445,7 +455,8 @@ typedef struct refine_options {
 void refine_options_default(refine_options *o);
 
 /* The search space of a super-shader's parameters, from their names: "Mult N" selectors,
- * "Pattern Offset" fixed (a seed, not a look), hues circular, the rest values. kind and
+ * "Pattern Offset" fixed (a seed, not a look), hues circular, the noises' "Scale"s zooms,
+ * the rest values. kind and
  * choices have n entries. */
 void refine_space_for_params(const char *const *names, int n, refine_kind *kind, int *choices);
 

@@ -20,6 +20,14 @@
  * sigma grows on success and shrinks on failure so that about 1 in 5 succeeds.
  * REFINE_RANDOM: uniform draws of the active parameters around nothing: the baseline that
  * says whether the search's moves are worth more than fresh guesses.
+ * REFINE_ES_SPLIT: the ES with the zooms (REFINE_ZOOM: the noises' Scales) apart. The plain
+ * ES moves every active value at once, a Scale among them, and a Scale multiplies
+ * coordinates that Pattern Offset has shifted by up to 100: any change of it draws a new
+ * instance of its pattern, whose Gram distance to the input differs by about the floor (the
+ * distance between two instances of one material). So every plain-ES proposal carries that
+ * noise; the search keeps the lucky ones and then stalls behind them. Here a proposal either
+ * moves the other values as the ES does (the pattern instance stays, the loss is smooth) or,
+ * one time in four, one Scale alone, each kind with its own sigma and 1/5 rule.
  * The ES is the default: on renders it cut the distances more than coordinate search
  * (EVALUATION.md, "refinement methods").
  *
@@ -33,7 +41,8 @@
 
 #include "pipeline/pipeline_internal.h"
 
-const char *const refine_method_names[REFINE_N_METHODS] = {"coordinate", "es", "random"};
+const char *const refine_method_names[REFINE_N_METHODS] = {"coordinate", "es", "random",
+                                                           "es-split"};
 
 int refine_method_parse(const char *name)
 {
@@ -53,6 +62,13 @@ void refine_options_default(refine_options *o)
     o->seed = 1;
 }
 
+/* "Noise A Scale" and its kin: a name that starts with "Noise " and ends with " Scale". */
+static int is_noise_scale(const char *name)
+{
+    size_t len = strlen(name);
+    return !strncmp(name, "Noise ", 6) && len > 12 && !strcmp(name + len - 6, " Scale");
+}
+
 void refine_space_for_params(const char *const *names, int n, refine_kind *kind, int *choices)
 {
     for (int i = 0; i < n; i++) {
@@ -60,6 +76,7 @@ void refine_space_for_params(const char *const *names, int n, refine_kind *kind,
         kind[i] = choices[i] >= 2                       ? REFINE_SELECTOR
                   : strstr(names[i], "Pattern Offset") ? REFINE_FIXED
                   : strstr(names[i], "Hue")            ? REFINE_CIRCULAR
+                  : is_noise_scale(names[i])           ? REFINE_ZOOM
                                                        : REFINE_VALUE;
     }
 }
@@ -220,6 +237,58 @@ static int es_search(search *S)
     return 0;
 }
 
+/* One zoom proposal in ZOOM_EVERY, when the current point has zooms and other values. */
+enum { ZOOM_EVERY = 4 };
+
+static int es_split_search(search *S)
+{
+    const refine_space *s = S->s;
+    double sigma = S->o->step, sigma_zoom = S->o->step;
+    while (S->r->evals < S->o->budget && S->n_movable > 0) {
+        int n_zoom = 0, n_other = 0;
+        for (int j = 0; j < S->n_movable; j++)
+            s->kind[S->movable[j]] == REFINE_ZOOM ? n_zoom++ : n_other++;
+        int zoom = n_zoom > 0 && (n_other == 0 || pipeline_splitmix64(&S->rng) % ZOOM_EVERY == 0);
+        memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
+        int changed = 0;
+        if (zoom) {
+            int pick = (int)(pipeline_splitmix64(&S->rng) % (uint64_t)n_zoom);
+            for (int j = 0; j < S->n_movable; j++) {
+                int i = S->movable[j];
+                if (s->kind[i] == REFINE_ZOOM && pick-- == 0) {
+                    S->y[i] = moved(s, i, S->x[i], sigma_zoom * gaussian(&S->rng));
+                    changed = S->y[i] != S->x[i];
+                    break;
+                }
+            }
+        } else {
+            for (int j = 0; j < S->n_movable; j++) {
+                int i = S->movable[j];
+                if (s->kind[i] == REFINE_ZOOM)
+                    continue;
+                if (s->kind[i] == REFINE_SELECTOR) {
+                    if (uniform01(&S->rng) * n_other < 1.0) {
+                        S->y[i] = other_choice(s, i, S->x[i], &S->rng);
+                        changed = 1;
+                    }
+                } else {
+                    S->y[i] = moved(s, i, S->x[i], sigma * gaussian(&S->rng));
+                    changed |= S->y[i] != S->x[i];
+                }
+            }
+        }
+        if (!changed)
+            continue;
+        int rc = try_proposal(S);
+        if (rc < 0)
+            return -1;
+        double *sg = zoom ? &sigma_zoom : &sigma; /* the 1/5 rule, per kind of move */
+        *sg *= rc ? exp(0.8) : exp(-0.2);
+        *sg = fmin(fmax(*sg, S->o->min_step), 0.5);
+    }
+    return 0;
+}
+
 static int random_search(search *S)
 {
     const refine_space *s = S->s;
@@ -299,6 +368,9 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
         break;
     case REFINE_ES:
         rc = es_search(&S);
+        break;
+    case REFINE_ES_SPLIT:
+        rc = es_split_search(&S);
         break;
     default:
         rc = random_search(&S);

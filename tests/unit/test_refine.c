@@ -200,6 +200,96 @@ static void test_budget_one(void **state)
     refine_result_free(&r);
 }
 
+/* The kinds follow the super-shader's names: a selector's choices from "Mult N", the
+ * offset fixed, hues circular, a noise's Scale a zoom (and nothing else called Scale). */
+static void test_space_for_params(void **state)
+{
+    (void)state;
+    const char *names[] = {"Mult 9 Noise A Pattern", "Noise A Scale", "Noise C Scale",
+                           "Pattern Offset",         "Color 1 Hue",   "Bump Strength",
+                           "Noise B Detail",         "Scale",         "Noise Scale"};
+    enum { M = sizeof names / sizeof names[0] };
+    const refine_kind want[M] = {REFINE_SELECTOR, REFINE_ZOOM,  REFINE_ZOOM,
+                                 REFINE_FIXED,    REFINE_CIRCULAR, REFINE_VALUE,
+                                 REFINE_VALUE,    REFINE_VALUE, REFINE_VALUE};
+    refine_kind kind[M];
+    int ch[M];
+    refine_space_for_params(names, M, kind, ch);
+    for (int i = 0; i < M; i++)
+        assert_int_equal(kind[i], want[i]);
+    assert_int_equal(ch[0], 9);
+}
+
+/* A loss that watches the proposals: each against the search's current point (the best so
+ * far: the search keeps a proposal exactly when its loss is lower), counting those that move
+ * the zoom, the other values, or both. */
+enum { Z = 3 };
+static const refine_kind zoom_kinds[N] = {REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_ZOOM,
+                                          REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_VALUE};
+typedef struct watch {
+    float best[N];
+    double best_loss;
+    int calls, zoom_only, others_only, both;
+} watch;
+
+static int watched(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    watch *w = ctx;
+    double f = 0.0;
+    for (int i = 0; i < N; i++)
+        f += (x[i] - 0.3) * (x[i] - 0.3);
+    if (w->calls++ > 0) {
+        int zoom = x[Z] != w->best[Z], others = 0;
+        for (int i = 0; i < N; i++)
+            others += i != Z && x[i] != w->best[i];
+        w->zoom_only += zoom && !others;
+        w->others_only += others && !zoom;
+        w->both += zoom && others;
+    }
+    if (w->calls == 1 || f < w->best_loss) {
+        memcpy(w->best, x, sizeof w->best);
+        w->best_loss = f;
+    }
+    *loss = f;
+    return 0;
+}
+
+static int all_active(void *ctx, const float *x, uint8_t *active, char *err, size_t errlen)
+{
+    (void)ctx, (void)x, (void)err, (void)errlen;
+    memset(active, 1, N);
+    return 0;
+}
+
+/* es-split's promise: a proposal moves the zoom alone (about one in ZOOM_EVERY = 4) or the
+ * other values alone, never both; the plain ES moves them together. */
+static void test_zoom_split(void **state)
+{
+    (void)state;
+    const refine_space zs = {.n = N, .kind = zoom_kinds, .choices = choices};
+    for (int k = 0; k < 2; k++) {
+        refine_options o;
+        refine_options_default(&o);
+        o.method = k ? REFINE_ES_SPLIT : REFINE_ES;
+        o.budget = 200;
+        float x[N];
+        for (int i = 0; i < N; i++)
+            x[i] = 0.8f;
+        watch w = {0};
+        refine_result r;
+        char err[128];
+        assert_int_equal(refine_search(&zs, &o, watched, all_active, &w, x, &r, err, sizeof err), 0);
+        refine_result_free(&r);
+        assert_int_equal(w.zoom_only + w.others_only + w.both, 199);
+        if (k) {
+            assert_int_equal(w.both, 0);
+            assert_in_range(w.zoom_only, 30, 70); /* 199 / 4 = 50 expected */
+        } else
+            assert_true(w.both > 190);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -207,6 +297,8 @@ int main(void)
         cmocka_unit_test(test_quality),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_budget_one),
+        cmocka_unit_test(test_space_for_params),
+        cmocka_unit_test(test_zoom_split),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
