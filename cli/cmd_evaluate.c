@@ -60,7 +60,7 @@ static const char *const help =
     "  --top-k K             candidates of the -topk methods (default 8)\n"
     "  --refine N            renders of each refinement, its start's included (default 64,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
-    "  --method M            the refinement: es (default), es-split, coordinate, random\n"
+    "  --method M            the refinement: es (default), es-split, es-mirror, coordinate, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --limit N             the first N rows of the test dataset only\n"
     "  --threads T           workers (default: online CPUs); never changes report.json\n"
@@ -139,7 +139,7 @@ int cmd_evaluate(int argc, char **argv)
         } else if (!strcmp(a, "--method")) {
             int m = refine_method_parse(v);
             if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not es, es-split, coordinate or random", v);
+                cli_error(sub, "--method: \"%s\" is not es, es-split, es-mirror, coordinate or random", v);
                 return EXIT_USAGE;
             }
             o.refine.method = (refine_method)m;

@@ -43,7 +43,7 @@ static const char *const help =
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
     "  --refine N             refinement renders, the start's included (default 64)\n"
-    "  --method M             es (default), es-split, coordinate, random (docs/predict.md)\n"
+    "  --method M             es (default), es-split, es-mirror, coordinate, random (docs/predict.md)\n"
     "  --search-preset NAME   draft, datagen (default), converged\n"
     "  --final-preset NAME    the preview's (default converged)\n"
     "  --colour-weight W      weight of the colour term (default 4)\n"
@@ -145,7 +145,7 @@ int cmd_predict(int argc, char **argv)
         } else if (!strcmp(a, "--method")) {
             int m = refine_method_parse(val);
             if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not es, es-split, coordinate or random", val);
+                cli_error(sub, "--method: \"%s\" is not es, es-split, es-mirror, coordinate or random", val);
                 return EXIT_USAGE;
             }
             o.refine.method = (refine_method)m;

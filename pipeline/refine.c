@@ -28,6 +28,7 @@
  * noise; the search keeps the lucky ones and then stalls behind them. Here a proposal either
  * moves the other values as the ES does (the pattern instance stays, the loss is smooth) or,
  * one time in four, one Scale alone, each kind with its own sigma and 1/5 rule.
+ * REFINE_ES_MIRROR: the ES with mirrored sampling: a failed move d is followed by -d.
  * The ES is the default: on renders it cut the distances more than coordinate search
  * (EVALUATION.md, "refinement methods").
  *
@@ -42,7 +43,7 @@
 #include "pipeline/pipeline_internal.h"
 
 const char *const refine_method_names[REFINE_N_METHODS] = {"coordinate", "es", "random",
-                                                           "es-split"};
+                                                           "es-split", "es-mirror"};
 
 int refine_method_parse(const char *name)
 {
@@ -206,52 +207,41 @@ static int coordinate_search(search *S, double *step, signed char *dir)
     return 0;
 }
 
-static int es_search(search *S)
-{
-    const refine_space *s = S->s;
-    double sigma = S->o->step;
-    while (S->r->evals < S->o->budget && S->n_movable > 0) {
-        memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
-        int changed = 0;
-        for (int j = 0; j < S->n_movable; j++) {
-            int i = S->movable[j];
-            if (s->kind[i] == REFINE_SELECTOR) {
-                if (uniform01(&S->rng) * S->n_movable < 1.0) {
-                    S->y[i] = other_choice(s, i, S->x[i], &S->rng);
-                    changed = 1;
-                }
-            } else {
-                S->y[i] = moved(s, i, S->x[i], sigma * gaussian(&S->rng));
-                changed |= S->y[i] != S->x[i];
-            }
-        }
-        if (!changed)
-            continue;
-        int rc = try_proposal(S);
-        if (rc < 0)
-            return -1;
-        /* 1/5 rule: expected log-change zero at a success rate of 1/5. */
-        sigma *= rc ? exp(0.8) : exp(-0.2);
-        sigma = fmin(fmax(sigma, S->o->min_step), 0.5);
-    }
-    return 0;
-}
-
-/* One zoom proposal in ZOOM_EVERY, when the current point has zooms and other values. */
+/* One zoom proposal in ZOOM_EVERY (es-split), when the current point has zooms and other
+ * values. */
 enum { ZOOM_EVERY = 4 };
 
-static int es_split_search(search *S)
+/* The (1+1)-ES and its variants. split: the zooms move alone, one proposal in ZOOM_EVERY,
+ * with their own sigma, and never with the other values. mirror: a value move that failed
+ * and changed no selector is followed by its mirror image x - d (Brockhoff et al. 2010,
+ * mirrored sampling with sequential selection): near a smooth point one of d and -d
+ * descends, so the pair finds the way twice as often as two fresh draws. delta holds d
+ * (n). With split = mirror = 0 this is es, draw for draw as before the variants existed. */
+static int es_core(search *S, int split, int mirror, double *delta)
 {
     const refine_space *s = S->s;
     double sigma = S->o->step, sigma_zoom = S->o->step;
+    int mirror_next = 0;
     while (S->r->evals < S->o->budget && S->n_movable > 0) {
-        int n_zoom = 0, n_other = 0;
-        for (int j = 0; j < S->n_movable; j++)
-            s->kind[S->movable[j]] == REFINE_ZOOM ? n_zoom++ : n_other++;
-        int zoom = n_zoom > 0 && (n_other == 0 || pipeline_splitmix64(&S->rng) % ZOOM_EVERY == 0);
+        int n_zoom = 0, n_other = S->n_movable;
+        if (split) {
+            n_other = 0;
+            for (int j = 0; j < S->n_movable; j++)
+                s->kind[S->movable[j]] == REFINE_ZOOM ? n_zoom++ : n_other++;
+        }
+        int zoom = !mirror_next && n_zoom > 0 &&
+                   (n_other == 0 || pipeline_splitmix64(&S->rng) % ZOOM_EVERY == 0);
         memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
-        int changed = 0;
-        if (zoom) {
+        int changed = 0, flipped = 0;
+        if (mirror_next) {
+            for (int j = 0; j < S->n_movable; j++) {
+                int i = S->movable[j];
+                if (s->kind[i] != REFINE_SELECTOR && !(split && s->kind[i] == REFINE_ZOOM)) {
+                    S->y[i] = moved(s, i, S->x[i], -delta[i]);
+                    changed |= S->y[i] != S->x[i];
+                }
+            }
+        } else if (zoom) {
             int pick = (int)(pipeline_splitmix64(&S->rng) % (uint64_t)n_zoom);
             for (int j = 0; j < S->n_movable; j++) {
                 int i = S->movable[j];
@@ -264,27 +254,34 @@ static int es_split_search(search *S)
         } else {
             for (int j = 0; j < S->n_movable; j++) {
                 int i = S->movable[j];
-                if (s->kind[i] == REFINE_ZOOM)
+                if (split && s->kind[i] == REFINE_ZOOM)
                     continue;
                 if (s->kind[i] == REFINE_SELECTOR) {
                     if (uniform01(&S->rng) * n_other < 1.0) {
                         S->y[i] = other_choice(s, i, S->x[i], &S->rng);
-                        changed = 1;
+                        changed = flipped = 1;
                     }
                 } else {
-                    S->y[i] = moved(s, i, S->x[i], sigma * gaussian(&S->rng));
+                    delta[i] = sigma * gaussian(&S->rng);
+                    S->y[i] = moved(s, i, S->x[i], delta[i]);
                     changed |= S->y[i] != S->x[i];
                 }
             }
         }
+        int was_mirror = mirror_next;
+        mirror_next = 0;
         if (!changed)
             continue;
         int rc = try_proposal(S);
         if (rc < 0)
             return -1;
-        double *sg = zoom ? &sigma_zoom : &sigma; /* the 1/5 rule, per kind of move */
+        /* 1/5 rule: expected log-change zero at a success rate of 1/5; per kind of move. */
+        double *sg = zoom ? &sigma_zoom : &sigma;
         *sg *= rc ? exp(0.8) : exp(-0.2);
         *sg = fmin(fmax(*sg, S->o->min_step), 0.5);
+        /* A failed draw is mirrored once; the mirror's own failure is not. After a success
+         * the active set may have changed, so nothing is mirrored. */
+        mirror_next = mirror && !rc && !zoom && !flipped && !was_mirror;
     }
     return 0;
 }
@@ -367,10 +364,10 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
         rc = coordinate_search(&S, step, dir);
         break;
     case REFINE_ES:
-        rc = es_search(&S);
-        break;
     case REFINE_ES_SPLIT:
-        rc = es_split_search(&S);
+    case REFINE_ES_MIRROR:
+        /* step[] is coordinate search's; the ES keeps its last draw there. */
+        rc = es_core(&S, o->method == REFINE_ES_SPLIT, o->method == REFINE_ES_MIRROR, step);
         break;
     default:
         rc = random_search(&S);

@@ -290,6 +290,77 @@ static void test_zoom_split(void **state)
     }
 }
 
+/* es-mirror's promise: a value move that failed is followed by its mirror about the current
+ * point, x - d for x + d; a mirror that failed is followed by a fresh draw. The loss watches
+ * pairs of consecutive proposals from the same current point. */
+typedef struct mirror_watch {
+    float best[N], prev[N];
+    double best_loss;
+    int calls, prev_failed, prev_mirror, mirrors, fresh_after_fail;
+} mirror_watch;
+
+static int mirror_watched(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    mirror_watch *w = ctx;
+    double f = 0.0;
+    for (int i = 0; i < N; i++)
+        f += (x[i] - 0.3) * (x[i] - 0.3);
+    int is_mirror = 0;
+    if (w->calls > 0 && (w->prev_failed || w->prev_mirror)) {
+        is_mirror = 1;
+        for (int i = 0; i < N; i++) {
+            double d = (double)w->prev[i] - w->best[i], m = (double)x[i] - w->best[i];
+            if (w->prev[i] > 0.0f && w->prev[i] < 1.0f && x[i] > 0.0f && x[i] < 1.0f &&
+                fabs(m + d) > 1e-6)
+                is_mirror = 0;
+        }
+        if (w->prev_mirror)
+            w->fresh_after_fail += !is_mirror;
+        else
+            w->mirrors += is_mirror;
+    }
+    int failed = w->calls > 0 && !(f < w->best_loss);
+    if (w->calls++ == 0 || f < w->best_loss) {
+        memcpy(w->best, x, sizeof w->best);
+        w->best_loss = f;
+    }
+    memcpy(w->prev, x, sizeof w->prev);
+    w->prev_mirror = failed && is_mirror;
+    w->prev_failed = failed && !w->prev_mirror;
+    *loss = f;
+    return 0;
+}
+
+static void test_mirror(void **state)
+{
+    (void)state;
+    const refine_kind values[N] = {REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_VALUE,
+                                   REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_VALUE};
+    const refine_space vs = {.n = N, .kind = values, .choices = choices};
+    for (int k = 0; k < 2; k++) {
+        refine_options o;
+        refine_options_default(&o);
+        o.method = k ? REFINE_ES_MIRROR : REFINE_ES;
+        o.budget = 200;
+        float x[N];
+        for (int i = 0; i < N; i++)
+            x[i] = 0.6f;
+        mirror_watch w = {0};
+        refine_result r;
+        char err[128];
+        assert_int_equal(refine_search(&vs, &o, mirror_watched, all_active, &w, x, &r, err, sizeof err), 0);
+        refine_result_free(&r);
+        if (k) {
+            printf("# %-9s %d mirrors, %d fresh draws after a failed mirror\n",
+               refine_method_names[o.method], w.mirrors, w.fresh_after_fail);
+        assert_true(w.mirrors > 40); /* most failures: at a 1/5 success rate, ~100 */
+            assert_true(w.fresh_after_fail > 20);
+        } else
+            assert_int_equal(w.mirrors, 0);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -299,6 +370,7 @@ int main(void)
         cmocka_unit_test(test_budget_one),
         cmocka_unit_test(test_space_for_params),
         cmocka_unit_test(test_zoom_split),
+        cmocka_unit_test(test_mirror),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
