@@ -262,6 +262,23 @@ static int all_active(void *ctx, const float *x, uint8_t *active, char *err, siz
     return 0;
 }
 
+/* 200 evaluations of method m from every parameter at x0, all active. */
+static void search_from(const refine_space *sp, refine_method m, float x0, refine_loss_fn f,
+                        void *ctx)
+{
+    refine_options o;
+    refine_options_default(&o);
+    o.method = m;
+    o.budget = 200;
+    float x[N];
+    for (int i = 0; i < N; i++)
+        x[i] = x0;
+    refine_result r;
+    char err[128];
+    assert_int_equal(refine_search(sp, &o, f, all_active, ctx, x, &r, err, sizeof err), 0);
+    refine_result_free(&r);
+}
+
 /* es-split's promise: a proposal moves the zoom alone (about one in ZOOM_EVERY = 4) or the
  * other values alone, never both; the plain ES moves them together. */
 static void test_zoom_split(void **state)
@@ -269,18 +286,8 @@ static void test_zoom_split(void **state)
     (void)state;
     const refine_space zs = {.n = N, .kind = zoom_kinds, .choices = choices};
     for (int k = 0; k < 2; k++) {
-        refine_options o;
-        refine_options_default(&o);
-        o.method = k ? REFINE_ES_SPLIT : REFINE_ES;
-        o.budget = 200;
-        float x[N];
-        for (int i = 0; i < N; i++)
-            x[i] = 0.8f;
         watch w = {0};
-        refine_result r;
-        char err[128];
-        assert_int_equal(refine_search(&zs, &o, watched, all_active, &w, x, &r, err, sizeof err), 0);
-        refine_result_free(&r);
+        search_from(&zs, k ? REFINE_ES_SPLIT : REFINE_ES, 0.8f, watched, &w);
         assert_int_equal(w.zoom_only + w.others_only + w.both, 199);
         if (k) {
             assert_int_equal(w.both, 0);
@@ -339,22 +346,12 @@ static void test_mirror(void **state)
                                    REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_VALUE};
     const refine_space vs = {.n = N, .kind = values, .choices = choices};
     for (int k = 0; k < 2; k++) {
-        refine_options o;
-        refine_options_default(&o);
-        o.method = k ? REFINE_ES_MIRROR : REFINE_ES;
-        o.budget = 200;
-        float x[N];
-        for (int i = 0; i < N; i++)
-            x[i] = 0.6f;
         mirror_watch w = {0};
-        refine_result r;
-        char err[128];
-        assert_int_equal(refine_search(&vs, &o, mirror_watched, all_active, &w, x, &r, err, sizeof err), 0);
-        refine_result_free(&r);
+        search_from(&vs, k ? REFINE_ES_MIRROR : REFINE_ES, 0.6f, mirror_watched, &w);
         if (k) {
-            printf("# %-9s %d mirrors, %d fresh draws after a failed mirror\n",
-               refine_method_names[o.method], w.mirrors, w.fresh_after_fail);
-        assert_true(w.mirrors > 40); /* most failures: at a 1/5 success rate, ~100 */
+            printf("# es-mirror %d mirrors, %d fresh draws after a failed mirror\n", w.mirrors,
+                   w.fresh_after_fail);
+            assert_true(w.mirrors > 40); /* most failures: at a 1/5 success rate, ~100 */
             assert_true(w.fresh_after_fail > 20);
         } else
             assert_int_equal(w.mirrors, 0);

@@ -1,0 +1,43 @@
+"""Two refinement methods, input by input: for each -refine row and distance of two
+`imsynth evaluate` reports made with the same model and inputs (e.g. --method es against
+--method es-split), on how many inputs B's refined distance is below A's, and the median of
+B / A. The medians of the reports' own tables compare different inputs' values; this pairs
+them.
+
+    python3 tests/bench/refine_compare.py REPORT_A REPORT_B [REPORT_A2 REPORT_B2 ...]
+
+With more pairs (one per input set, say), the counts are summed over the pairs.
+"""
+import csv
+import statistics
+import sys
+
+
+def load(report):
+    out = {}
+    with open(f"{report}/inputs.csv") as f:
+        for r in csv.DictReader(f):
+            out[(r["set"], r["input"], r["method"], r["distance"])] = float(r["normalised"])
+    return out
+
+
+def main(argv):
+    if len(argv) < 2 or len(argv) % 2:
+        sys.exit(__doc__)
+    ratios = {}
+    for a_dir, b_dir in zip(argv[0::2], argv[1::2]):
+        a, b = load(a_dir), load(b_dir)
+        for key, va in a.items():
+            s, name, m, d = key
+            if m.endswith("-refine") and key in b and va > 0:
+                ratios.setdefault((m, d), []).append(b[key] / va)
+    print(f"B = {' '.join(argv[1::2])} against A = {' '.join(argv[0::2])}")
+    print("| row | distance | inputs | B better | median B / A |")
+    print("|---|---|---:|---:|---:|")
+    for (m, d), v in sorted(ratios.items()):
+        better = sum(x < 1 for x in v)
+        print(f"| {m} | {d} | {len(v)} | {better} | {statistics.median(v):.3f} |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
