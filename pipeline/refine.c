@@ -214,9 +214,8 @@ enum { ZOOM_EVERY = 4 };
 /* The (1+1)-ES and its variants. split: the zooms move alone, one proposal in ZOOM_EVERY,
  * with their own sigma, and never with the other values. mirror: a value move that failed
  * and changed no selector is followed by its mirror image x - d (Brockhoff et al. 2010,
- * mirrored sampling with sequential selection): near a smooth point one of d and -d
- * descends, so the pair finds the way twice as often as two fresh draws. delta holds d
- * (n). With split = mirror = 0 this is es, draw for draw as before the variants existed. */
+ * mirrored sampling with sequential selection): where the loss is nearly linear over the
+ * step, x + d ascending means x - d descends. delta holds d (n). With split = mirror = 0 this is es, draw for draw as before the variants existed. */
 static int es_core(search *S, int split, int mirror, double *delta)
 {
     const refine_space *s = S->s;
