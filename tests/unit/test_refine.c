@@ -226,6 +226,15 @@ static void test_space_for_params(void **state)
 enum { Z = 3 };
 static const refine_kind zoom_kinds[N] = {REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_ZOOM,
                                           REFINE_VALUE, REFINE_VALUE, REFINE_VALUE, REFINE_VALUE};
+/* The watching losses' own: a bowl with its bottom at 0.3 in every parameter. */
+static double bowl(const float *x)
+{
+    double f = 0.0;
+    for (int i = 0; i < N; i++)
+        f += (x[i] - 0.3) * (x[i] - 0.3);
+    return f;
+}
+
 typedef struct watch {
     float best[N];
     double best_loss;
@@ -236,9 +245,7 @@ static int watched(void *ctx, const float *x, double *loss, char *err, size_t er
 {
     (void)err, (void)errlen;
     watch *w = ctx;
-    double f = 0.0;
-    for (int i = 0; i < N; i++)
-        f += (x[i] - 0.3) * (x[i] - 0.3);
+    double f = bowl(x);
     if (w->calls++ > 0) {
         int zoom = x[Z] != w->best[Z], others = 0;
         for (int i = 0; i < N; i++)
@@ -310,9 +317,7 @@ static int mirror_watched(void *ctx, const float *x, double *loss, char *err, si
 {
     (void)err, (void)errlen;
     mirror_watch *w = ctx;
-    double f = 0.0;
-    for (int i = 0; i < N; i++)
-        f += (x[i] - 0.3) * (x[i] - 0.3);
+    double f = bowl(x);
     int is_mirror = 0;
     if (w->calls > 0 && (w->prev_failed || w->prev_mirror)) {
         is_mirror = 1;
