@@ -856,8 +856,13 @@ typedef struct report_ctx {
     const char *dir; /* the temporary folder */
 } report_ctx;
 
-static const char *pattern_selectors[] = {"Mult 9 Noise A Pattern", "Mult 9 Noise B Pattern",
-                                          "Mult 9 Noise C Pattern"};
+/* The pattern selectors, whatever their choice count: "Mult N Noise X Pattern". */
+static int is_pattern_selector(const char *name)
+{
+    size_t len = strlen(name), tail = strlen(" Pattern");
+    return sg_param_mult_choices(name) > 0 && strstr(name, " Noise ") && len > tail &&
+           !strcmp(name + len - tail, " Pattern");
+}
 
 static cJSON *number_or_null(double v) { return isfinite(v) ? cJSON_CreateNumber(v) : cJSON_CreateNull(); }
 
@@ -895,18 +900,14 @@ static int make_targets(const report_ctx *c, target *t, int max)
         }
     }
     size_t np = (size_t)c->sh->n_params;
-    for (size_t p = 0; p < sizeof pattern_selectors / sizeof *pattern_selectors && n < max; p++) {
-        int k = -1;
-        for (int j = 0; j < c->sh->n_params; j++)
-            if (!strcmp(c->sh->names[j], pattern_selectors[p]))
-                k = j;
-        if (k < 0)
+    for (int k = 0; k < c->sh->n_params && n < max; k++) {
+        if (!is_pattern_selector(c->sh->names[k]))
             continue;
         param_figures f = param_summary(c->rs, SET_SYNTHETIC, pred, k,
-                                        sg_param_mult_choices(pattern_selectors[p]), c->majority_bin[k],
+                                        sg_param_mult_choices(c->sh->names[k]), c->majority_bin[k],
                                         c->sh->mean[k], np);
         snprintf(t[n].what, sizeof t[n].what,
-                 "%s: accuracy / majority-class rate (the catalogue's)", pattern_selectors[p]);
+                 "%s: accuracy / majority-class rate (the catalogue's)", c->sh->names[k]);
         t[n].figure = c->majority_share[k] > 0 ? f.accuracy / c->majority_share[k] : NAN;
         t[n].threshold = 2.0;
         t[n].known = isfinite(t[n].figure);
