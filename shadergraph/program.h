@@ -53,9 +53,9 @@ struct sg_program {
 
 /* Rec. 709 luminance, as Blender's colour-management config declares it (its
  * `luma` line); Cycles converts colour to float with these weights. */
-#define SG_LUMA_R 0.2126f
-#define SG_LUMA_G 0.7152f
-#define SG_LUMA_B 0.0722f
+#define SG_LUMA_R 0.2126729f
+#define SG_LUMA_G 0.7151522f
+#define SG_LUMA_B 0.0721750f
 
 /* Converts a constant of type `from` to type `to` exactly as a link between such
  * sockets converts values (compile.c). `in` and `out` may alias. */
