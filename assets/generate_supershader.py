@@ -14,7 +14,7 @@ Design (the thesis's super-shader is lost; this follows its description, thesis.
     |
   Texture Coordinate.Object + Pattern Offset, domain-warped by a fixed noise
     |
-  Noise Module A, B, C  (nine patterns behind a 9-way hard switch, each shaped by
+  Noise Module A, B, C  (eleven patterns behind an 11-way hard switch, each shaped by
     |                    Scale / Detail / Roughness / Distortion, output in [0, 1])
   Math Module "Structure" = A (op) B, Math Module "Detail" = Structure (op) C
     |                    (add/subtract/multiply/divide/minimum/maximum, renormalised)
@@ -300,16 +300,18 @@ def smooth_switch_color(n):
 
 # ---- modules ------------------------------------------------------------------------
 
-# The nine patterns of the noise module: (label, builder). Each returns the (node,
-# socket) of a value roughly in [0, 1]; the module renormalises with clamped Map Range
-# nodes whose input ranges were measured over the plane with our evaluator at the
-# parameter extremes (see assets/supershader.md).
+# The eleven patterns of the noise module: (label, Blender type; None for the two built
+# from Math nodes). Each gives a value roughly in [0, 1]; the module renormalises with
+# clamped Map Range nodes whose input ranges were measured over the plane with our
+# evaluator at the parameter extremes (see assets/supershader.md).
 NOISE_PATTERNS = [
     ("fBM", "FBM"), ("Ridged", "RIDGED_MULTIFRACTAL"), ("Hybrid", "HYBRID_MULTIFRACTAL"),
     ("Hetero terrain", "HETERO_TERRAIN"), ("Turbulent colour", "FBM_COLOR"),
     ("Cells F1", "F1"), ("Cells F2 - F1 creases", "F2"), ("Cell edges", "DISTANCE_TO_EDGE"),
     ("Cell colour (tiles)", "CELL_COLOR"),
+    ("Bricks (tiles, planks)", None), ("Grain bands", None),
 ]
+N_PATTERNS = len(NOISE_PATTERNS)
 
 
 def noise_module():
@@ -388,13 +390,82 @@ def noise_module():
     outs.append(norm(7, (v7, "Distance"), 0.0, 0.3, "SMOOTHSTEP"))
     v8 = voronoi("Cell Colour", "F1")  # its Color: one random colour per cell
     outs.append(norm(8, (v8, "Color"), 0.0, 1.0))
-    sw = hard_switch(9)
-    s = g.group_node("Pattern Switch", sw, label="Mult 9: pattern")
+    axes = g.node("ShaderNodeSeparateXYZ", "Axes")
+    g.link(vec[0], vec[1], axes, "Vector")
+    outs.append(norm(9, bricks(g, axes, cell_scale), 0.0, 1.0))
+    outs.append(norm(10, grain_bands(g, axes, vec, detail, rough), -1.0, 1.0))
+    sw = hard_switch(N_PATTERNS)
+    s = g.group_node("Pattern Switch", sw, label="Mult %d: pattern" % N_PATTERNS)
     g.link(GI, "Pattern", s, "Selector")
     for k, o in enumerate(outs):
         g.link(o[0], o[1], s, "Input %d" % k)
     g.link(s, "Output", GO, "Value")
     return g
+
+
+def bricks(g, axes, rows):
+    """Courses of bricks along X from Math nodes, as a Blender user builds them without
+    the Brick Texture node (every node here is one the evaluator and the extractor
+    already prove): rows per unit from the cell Scale, brick width / height from
+    Roughness (1 square tiles .. 6 planks), odd rows shifted by Detail (0 stacked .. half
+    a brick: running bond), mortar half-width from Distortion. Returns mortar 0, each
+    brick a value 0.4..1 of its own (a White Noise of its column and row).
+    Ping-pong with scale 0.5 is the distance to the nearest integer, with scale 1 an
+    integer's parity: three nodes each in place of fract / subtract / minimum. Once the
+    parameters are bound, the ranges and the ratio rows / aspect fold to constants."""
+    aspect = g.param_range("Brick Aspect", (GI, "Roughness"), 1.0, 6.0, label="width / height 1..6")
+    across = g.math("Bricks A Unit", "DIVIDE", rows, aspect, label="rows / aspect")
+    v = g.math("Course Coordinate", "MULTIPLY", (axes, "Y"), rows, label="y * rows")
+    u = g.math("Brick Coordinate", "MULTIPLY", (axes, "X"), (across, "Value"))
+    row = g.math("Course", "FLOOR", (v, "Value"))
+    odd = g.math("Odd Course", "PINGPONG", (row, "Value"), 1.0, label="0 even, 1 odd")
+    half = g.math("Course Shift", "MULTIPLY", (GI, "Detail"), 0.5, label="0..half a brick")
+    us = g.node("ShaderNodeMath", "Shifted Brick Coordinate", {"operation": "MULTIPLY_ADD"})
+    g.link(odd, "Value", us, "Value")
+    g.link(half, "Value", us, "Value_001")
+    g.link(u, "Value", us, "Value_002")
+    col = g.math("Brick Column", "FLOOR", (us, "Value"))
+    du = g.math("Side Distance", "PINGPONG", (us, "Value"), 0.5, label="to the nearest head joint")
+    dus = g.math("Side Distance In Rows", "MULTIPLY", (du, "Value"), aspect)
+    dv = g.math("Bed Distance", "PINGPONG", (v, "Value"), 0.5, label="to the nearest bed joint")
+    d = g.math("Edge Distance", "MINIMUM", (dus, "Value"), (dv, "Value"),
+               label="to the nearest joint, in rows")
+    w = g.param_range("Mortar Width", (GI, "Distortion"), 0.02, 0.15, label="mortar 0.02..0.15")
+    w2 = g.math("Mortar Edge", "ADD", w, 0.04)
+    face = g.map_range("Brick Face", (d, "Value"), 0.0, 1.0, w, (w2, "Value"), "SMOOTHSTEP",
+                       label="0 mortar, 1 brick")
+    cell = g.node("ShaderNodeCombineXYZ", "Brick Cell")
+    g.link(col, "Value", cell, "X")
+    g.link(row, "Value", cell, "Y")
+    rnd = g.node("ShaderNodeTexWhiteNoise", "Brick Shade")
+    g.link(cell, "Vector", rnd, "Vector")
+    shade = g.node("ShaderNodeMath", "Brick Value", {"operation": "MULTIPLY_ADD"},
+                   {"Value_001": 0.6, "Value_002": 0.4}, label="0.4..1")
+    g.link(rnd, "Value", shade, "Value")
+    return (g.math("Bricks", "MULTIPLY", (face, "Result"), (shade, "Value")), "Value")
+
+
+def grain_bands(g, axes, vec, detail, rough):
+    """Bands along X, as Blender's Wave Texture draws them (sine bands, the phase
+    distorted by an fBM) but from Noise and Math nodes: sin(y * frequency + distortion *
+    fBM), frequency from Scale (2..28 bands across the plane), the fBM's Detail and
+    Roughness the module's, its amplitude from Distortion (up to 3 bands; the fBM's mean
+    only shifts the bands, as Pattern Offset does). Returns a value in [-1, 1]."""
+    two_pi = 2.0 * math.pi
+    freq = g.param_range("Band Frequency", (GI, "Scale"), 1.0 * two_pi, 14.0 * two_pi,
+                         label="1..14 bands a unit (radians)")
+    amp = g.param_range("Band Distortion", (GI, "Distortion"), 0.0, 6.0 * two_pi,
+                        label="0..3 bands (radians, fBM spans about 0.5)")
+    n = g.node("ShaderNodeTexNoise", "Band Noise", {"noise_type": "FBM"}, {"Scale": 2.0})
+    g.link(vec[0], vec[1], n, "Vector")
+    g.link(detail[0], detail[1], n, "Detail")
+    g.link(rough[0], rough[1], n, "Roughness")
+    y = g.math("Band Phase", "MULTIPLY", (axes, "Y"), freq)
+    phase = g.node("ShaderNodeMath", "Distorted Phase", {"operation": "MULTIPLY_ADD"})
+    g.link(n, "Fac", phase, "Value")
+    g.link(amp[0], amp[1], phase, "Value_001")
+    g.link(y, "Value", phase, "Value_002")
+    return (g.math("Grain", "SINE", (phase, "Value")), "Value")
 
 
 MATH_OPS = ["ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MINIMUM", "MAXIMUM"]
@@ -507,7 +578,8 @@ MAP_CHOICES = "0 linear, 1 smootherstep, 2 terraces (4 steps), 3 ridge (0-1-0 ra
 
 def noise_params(letter):
     return [
-        ("Mult 9 Noise %s Pattern" % letter, "Noise %s" % letter, "pattern", PATTERN_CHOICES),
+        ("Mult %d Noise %s Pattern" % (N_PATTERNS, letter), "Noise %s" % letter, "pattern",
+         PATTERN_CHOICES),
         ("Noise %s Scale" % letter, "Noise %s" % letter, "feature scale",
          "Scale 1..14 (noise), 1.5..10 (cells)"),
         ("Noise %s Detail" % letter, "Noise %s" % letter, "octaves", "Detail 0..8"),
@@ -567,8 +639,14 @@ assert len({p[0] for p in PARAMS}) == 50
 
 # Default values written into the asset: a pleasant stone, so that the plain asset
 # renders something sensible before any parameters are bound.
-DEFAULTS = {"Mult 9 Noise A Pattern": 0.056, "Mult 9 Noise B Pattern": 0.611,
-            "Mult 9 Noise C Pattern": 0.056}
+def _bin_centre(k, n):
+    return round((k + 0.5) / n, 3)
+
+
+# fBM for A and C, Cells F1 for B (the selector at its bin centre).
+DEFAULTS = {"Mult %d Noise A Pattern" % N_PATTERNS: _bin_centre(0, N_PATTERNS),
+            "Mult %d Noise B Pattern" % N_PATTERNS: _bin_centre(5, N_PATTERNS),
+            "Mult %d Noise C Pattern" % N_PATTERNS: _bin_centre(0, N_PATTERNS)}
 
 
 def random_values():
@@ -620,7 +698,7 @@ def build():
         src = (coords, "Vector")
         m = t.group_node("Noise %s" % letter, nm)
         t.link(src[0], src[1], m, "Vector")
-        for sock, pn in (("Pattern", "Mult 9 Noise %s Pattern"), ("Scale", "Noise %s Scale"),
+        for sock, pn in (("Pattern", "Mult %d Noise %%s Pattern" % N_PATTERNS), ("Scale", "Noise %s Scale"),
                          ("Detail", "Noise %s Detail"), ("Roughness", "Noise %s Roughness"),
                          ("Distortion", "Noise %s Distortion")):
             t.link(P, pn % letter, m, sock)
@@ -769,9 +847,15 @@ Twister, so frame N here is not the thesis's frame N (reproducing MT19937 and CP
 float conversion bit for bit was not worth it: the thesis's renders are lost too).
 
 **Modules** (node groups, as a Blender user would build them):
-- *Noise Module* (3 instances, A, B, C): nine patterns behind a hard 9-way switch:
+- *Noise Module* (3 instances, A, B, C): eleven patterns behind a hard 11-way switch:
   {patterns}. Scale, Detail, Roughness and Distortion shape them (Distortion also sets the
-  cells' Randomness). Each pattern is renormalised to about [0, 1] by a clamped Map Range
+  cells' Randomness). The last two are built from Math nodes (no Brick or Wave Texture
+  node, so every node is one the evaluator already proves against Blender): *bricks*
+  (courses along X; Scale sets the rows, Roughness the width / height 1..6 from square
+  tiles to planks, Detail the odd rows' shift up to half a brick, Distortion the mortar;
+  each brick a White Noise shade of its column and row) and *grain bands* (Blender's
+  Wave Texture's sine bands along X, their phase distorted by an fBM whose Detail and
+  Roughness are the module's: wood grain, strata). Each pattern is renormalised to about [0, 1] by a clamped Map Range
   whose input window was measured over the plane with our evaluator at the extremes of
   Detail and Roughness; the multifractal types, which Blender does not normalise, use
   windows proportional to their total octave weight M = (1 - r^(detail+1)) / (1 - r),
@@ -784,7 +868,7 @@ float conversion bit for bit was not worth it: the thesis's renders are lost too
 - *Parameter Colour* (3 instances: dark, light, accent): Hue walks a Color Ramp of real
   surface hues ({palette}); saturation is the palette's, scaled by the parameter squared
   (most materials muted, a few vivid); value is mapped per colour.
-- *Hard Switch N* (N = 2, 3, 4, 6, 9): `index = min(floor(v*N), N-1)`, then
+- *Hard Switch N* (N = 2, 3, 4, 6, 11): `index = min(floor(v*N), N-1)`, then
   `sum_k Input k * (index == k)`, Math nodes only (Compare, Multiply, Add). For a bound
   selector the extraction reduces it exactly (x*1 = x, x*0 = 0 for finite x, x+0 = x), so
   every switch input comes from a node whose output is known finite (a clamped Map Range
@@ -810,12 +894,15 @@ constants, and the importer cannot translate a linked Detail or Roughness. A sub
 extracted for a parameter set has those inputs constant (and Distortion, which Musgrave
 lacks, is never used by those types here), so sub-shaders are the thing to open in 3.4.
 
-**Checked** (when this design was committed): our evaluator and Blender 4.3
-(`blender/render_socket.py`, point-sampled through Emission) agree on frames 3, 11, 42
-and 77 within 1.2e-7 on Base Color, Metallic, Roughness and Normal at 128 x 128; the
+**Checked** (when this design was committed): the round-trip references
+(`tests/reference/nodes/gen_roundtrip.py`, frames 0-10, 19 and 23: the whole super-shader
+in Blender 4.3 and its sub-shader in 3.4 and 4.3, point-sampled through Emission at
+128 x 128) equal our evaluator on Base Color, Metallic, Roughness and Normal within 1e-4
+(`test_blender_nodes`; frames 0, 6, 10, 19 and 23 draw bricks or grain bands); the
 extractor (`sg_extract`, which applies exactly Cycles' constant folds) reduces frames
-0-299 to 21-36 nodes (median 29, 90th percentile 33), and the sub-shader's four maps
-equal the super-shader's bit for bit (frames 0-9, 64 x 64 points). Parameters are
+0-299 to 19-60 nodes (median 31, 90th percentile 45; bricks cost about 17 nodes), and the
+sub-shader's four maps equal the super-shader's bit for bit (frames 0-9, 64 x 64 points).
+Parameters are
 mapped to node ranges with Math nodes (Multiply, Add), not Map Range, because Cycles
 never folds a Map Range, even one with constant inputs. Evaluating the whole super-shader is expensive (every
 pattern of every module is computed, then switched): render the extracted sub-shader.

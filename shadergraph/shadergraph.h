@@ -69,7 +69,7 @@ typedef struct sg_graph sg_graph;
  * before anything is allocated for it, so that a hostile file costs bounded time and
  * memory. Validation, folding and compilation do passes over all links per node, so
  * their cost grows with nodes x links: at the limits a graph loads and compiles in
- * seconds; the super-shader has 531 nodes. */
+ * seconds; the super-shader has 670 nodes. */
 #define SG_MAX_GRAPH_FILE_BYTES (16u << 20) /* a graph file's size */
 #define SG_MAX_TREE_NODES 10000             /* nodes in the main tree or in one group */
 #define SG_MAX_TREE_LINKS 40000             /* links in one tree */
@@ -229,7 +229,7 @@ int sg_param_mult_choices(const char *name);
 void sg_params_sample(sg_params *p, unsigned long long frame);
 
 /* Parameter files: one JSON object keyed by parameter name, values in [0, 1]:
- *   {"Noise A Scale": 0.25, "Mult 9 Noise A Pattern": 0.056, ...}
+ *   {"Noise A Scale": 0.25, "Mult 11 Noise A Pattern": 0.045, ...}
  * Reading fills p->values for the names already in p (from the graph); a missing,
  * unknown, duplicated, non-number, non-finite or out-of-range entry is an error naming
  * the file and the parameter. On error p->values is left unchanged. */

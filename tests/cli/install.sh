@@ -15,7 +15,7 @@ done
 (cd / && "$p/bin/imsynth" --version) > "$tmp/out"; check "installed --version" 0 $?
 expect_stdout "the installed binary uses the installed data" "data: $p/bin/../share/imsynth/assets/supershader.json"
 (cd / && "$p/bin/imsynth" sample --seed 3) > "$tmp/out"; check "installed sample from /" 0 $?
-expect_stdout "a parameter set" "Mult 9 Noise A Pattern"
+expect_stdout "a parameter set" "Mult 11 Noise A Pattern"
 (cd / && "$p/bin/imsynth" --data "$root" --version) > "$tmp/out"
 expect_stdout "--data overrides" "data: $root/assets/supershader.json"
 (cd / && IMSYNTH_DATA="$tmp/nowhere" "$p/bin/imsynth" sample --seed 3) 2> "$tmp/err" > /dev/null

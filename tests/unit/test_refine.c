@@ -205,7 +205,7 @@ static void test_budget_one(void **state)
 static void test_space_for_params(void **state)
 {
     (void)state;
-    const char *names[] = {"Mult 9 Noise A Pattern", "Noise A Scale", "Noise C Scale",
+    const char *names[] = {"Mult 11 Noise A Pattern", "Noise A Scale", "Noise C Scale",
                            "Pattern Offset",         "Color 1 Hue",   "Bump Strength",
                            "Noise B Detail",         "Scale",         "Noise Scale"};
     enum { M = sizeof names / sizeof names[0] };
@@ -217,7 +217,7 @@ static void test_space_for_params(void **state)
     refine_space_for_params(names, M, kind, ch);
     for (int i = 0; i < M; i++)
         assert_int_equal(kind[i], want[i]);
-    assert_int_equal(ch[0], 9);
+    assert_int_equal(ch[0], 11);
 }
 
 /* A loss that watches the proposals: each against the search's current point (the best so
