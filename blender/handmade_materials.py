@@ -451,10 +451,141 @@ def sand(t):
     t.principled(color, 0.95, normal=t.bump(height, 1.0, 0.04), specular=0.3)
 
 
+# ---- a second set (session 14), written before any model was run on it --------------
+# Held out from every design decision that followed: the evaluation reports it apart.
+
+def cobblestone(t):
+    """Rounded grey-brown cobbles 12-20 cm across in dark sandy joints, worn tops."""
+    q = t.warp(t.p, 2.5, 0.06)
+    cells = t.voronoi(q, 6.5, feature="DISTANCE_TO_EDGE", randomness=0.8)
+    ids = t.voronoi(q, 6.5, randomness=0.8)
+    edge = cells.outputs["Distance"]
+    stone = t.smoothstep(edge, 0.03, 0.09)
+    shade = t.node("ShaderNodeSeparateColor", {0: ids.outputs["Color"]}).outputs[1]
+    base = t.ramp(shade, [(0.0, (0.10, 0.095, 0.085)), (0.6, (0.22, 0.20, 0.17)),
+                          (1.0, (0.28, 0.22, 0.16))])
+    wear = t.noise(t.p, 25.0, 4.0, 0.6)
+    base = t.mix(t.math("MULTIPLY", wear, 0.35), base, (0.06, 0.055, 0.05))
+    joint = t.ramp(t.noise(t.p, 70.0, 2.0, 0.5), [(0.3, (0.05, 0.04, 0.03)),
+                                                 (0.7, (0.12, 0.10, 0.07))])
+    color = t.mix(stone, joint, base)
+    dome = t.ramp(edge, [(0.02, 0.0), (0.35, 1.0)], "EASE", out="Color")
+    height = t.math("ADD", dome, t.math("MULTIPLY", wear, 0.08))
+    t.principled(color, t.math("SUBTRACT", 0.9, t.math("MULTIPLY", stone, 0.3)),
+                 normal=t.bump(height, 0.9, 0.03), specular=0.35)
+
+
+def vertical_boards(t):
+    """Painted pine cladding: vertical boards 11 cm wide, dark joints, grain along y."""
+    xyz = t.node("ShaderNodeSeparateXYZ", {"Vector": t.p})
+    # The boards run along y: swap the axes before the brick pattern (rows along x).
+    turned = t.node("ShaderNodeCombineXYZ", {"X": xyz.outputs["Y"], "Y": xyz.outputs["X"],
+                                             "Z": xyz.outputs["Z"]}).outputs["Vector"]
+    boards = t.brick(turned, 1.0, 2.5, 0.11, 0.004, offset=0.0, frequency=1, smooth=0.3)
+    per_board = boards.outputs["Color"]
+    q = t.vmath("ADD", t.p, t.vmath("SCALE", per_board, scale=2.0))
+    grain = t.wave(t.stretch(q, 1.0, 0.12), 9.0, distortion=4.0, detail=2.0,
+                   detail_scale=1.0, kind="BANDS", direction="X")
+    paint = t.ramp(grain, [(0.0, (0.46, 0.52, 0.50)), (1.0, (0.36, 0.43, 0.42))])
+    tint = t.ramp(per_board, [(0.0, 0.85), (1.0, 1.1)])
+    paint = t.mix(1.0, paint, tint, "MULTIPLY")
+    gap = boards.outputs["Fac"]
+    color = t.mix(gap, paint, (0.04, 0.045, 0.045))
+    height = t.math("SUBTRACT", t.math("MULTIPLY", grain, 0.1), gap)
+    t.principled(color, 0.55, normal=t.bump(height, 0.6, 0.008), specular=0.4)
+
+
+def granite(t):
+    """Polished pink granite: feldspar, quartz and black mica grains 1-3 cm."""
+    coarse = t.voronoi(t.warp(t.p, 8.0, 0.03), 38.0)
+    fine = t.voronoi(t.p, 90.0)
+    g1 = t.node("ShaderNodeSeparateColor", {0: coarse.outputs["Color"]}).outputs[0]
+    g2 = t.node("ShaderNodeSeparateColor", {0: fine.outputs["Color"]}).outputs[2]
+    mineral = t.ramp(g1, [(0.0, (0.42, 0.25, 0.20)), (0.45, (0.55, 0.36, 0.30)),
+                          (0.7, (0.60, 0.58, 0.55)), (0.85, (0.02, 0.02, 0.02))], "CONSTANT")
+    mica = t.math("GREATER_THAN", g2, 0.82)
+    color = t.mix(mica, mineral, (0.015, 0.015, 0.015))
+    cloud = t.noise(t.p, 1.5, 3.0, 0.5)
+    color = t.mix(t.math("MULTIPLY", cloud, 0.25), color, (0.30, 0.22, 0.20))
+    t.principled(color, 0.08, specular=0.5, coat=0.3, coat_roughness=0.03)
+
+
+def slate_tiles(t):
+    """Dark slate floor tiles 30 x 30 cm in a stacked grid, each its own grey, riven face."""
+    tiles = t.brick(t.p, 1.0, 0.30, 0.30, 0.008, color1=(0.035, 0.038, 0.042),
+                    color2=(0.09, 0.095, 0.10), smooth=0.2, offset=0.0, frequency=1)
+    cleft = t.fractal("RIDGED_MULTIFRACTAL", t.stretch(t.p, 1.0, 2.5), 5.0, 4.0, 0.55,
+                      lacunarity=2.0, offset=1.0, gain=2.0)
+    face = t.mix(t.math("MULTIPLY", t.noise(t.p, 12.0, 4.0, 0.6), 0.4),
+                 tiles.outputs["Color"], (0.13, 0.13, 0.14))
+    grout = tiles.outputs["Fac"]
+    color = t.mix(grout, face, (0.20, 0.19, 0.17))
+    height = t.math("ADD", t.math("SUBTRACT", 1.0, grout), t.math("MULTIPLY", cleft, 0.05))
+    t.principled(color, t.math("ADD", 0.45, t.math("MULTIPLY", grout, 0.4)),
+                 normal=t.bump(height, 0.7, 0.01), specular=0.4)
+
+
+def corrugated_metal(t):
+    """Galvanised corrugated steel: ribs along y, 7.9 cm apart, zinc spangle, white rust."""
+    # Wave bands: period 2 pi / (20 scale) m; 4.0 puts the floor's 0.37 m shift 0.29 of a
+    # period off a rib (4.2 would land within 0.05 of one: the ribs would not move).
+    ribs = t.wave(t.p, 4.0, kind="BANDS", direction="X", profile="SIN")
+    spangle = t.voronoi(t.p, 14.0)
+    sp = t.node("ShaderNodeSeparateColor", {0: spangle.outputs["Color"]}).outputs[0]
+    zinc = t.ramp(sp, [(0.0, (0.50, 0.52, 0.53)), (1.0, (0.66, 0.67, 0.68))])
+    stain = t.smoothstep(t.noise(t.p, 3.0, 6.0, 0.6), 0.6, 0.68)
+    color = t.mix(stain, zinc, (0.55, 0.55, 0.52))
+    metallic = t.math("SUBTRACT", 1.0, stain)
+    roughness = t.math("ADD", 0.25, t.math("MULTIPLY", sp, 0.15))
+    roughness = t.math("ADD", roughness, t.math("MULTIPLY", stain, 0.5))
+    t.principled(color, roughness, metallic=metallic, normal=t.bump(ribs, 1.0, 0.03))
+
+
+def stucco(t):
+    """Off-white sprayed stucco wall: soft lumps, flattened tops, faint dirt."""
+    lumps = t.noise(t.p, 18.0, 5.0, 0.6)
+    flat = t.math("MINIMUM", lumps, 0.58)
+    dirt = t.noise(t.p, 1.2, 4.0, 0.5)
+    base = t.ramp(lumps, [(0.35, (0.52, 0.50, 0.46)), (0.6, (0.66, 0.64, 0.60))])
+    color = t.mix(t.smoothstep(dirt, 0.55, 0.8), base, (0.42, 0.39, 0.34))
+    t.principled(color, 0.9, normal=t.bump(flat, 0.7, 0.02), specular=0.3)
+
+
+def asphalt(t):
+    """Worn asphalt: black binder, grey aggregate chips 5-15 mm, light wear patches."""
+    chips = t.voronoi(t.p, 60.0)
+    c = t.node("ShaderNodeSeparateColor", {0: chips.outputs["Color"]}).outputs[0]
+    inside = t.ramp(chips.outputs["Distance"], [(0.25, 1.0), (0.45, 0.0)], out="Color")
+    stone = t.ramp(c, [(0.0, (0.05, 0.05, 0.05)), (1.0, (0.22, 0.21, 0.20))])
+    binder = (0.02, 0.02, 0.02)
+    color = t.mix(inside, binder, stone)
+    wear = t.smoothstep(t.noise(t.p, 2.0, 5.0, 0.6), 0.5, 0.7)
+    color = t.mix(t.math("MULTIPLY", wear, 0.5), color, (0.16, 0.15, 0.14))
+    height = t.math("ADD", inside, t.math("MULTIPLY", t.noise(t.p, 150.0, 2.0, 0.5), 0.2))
+    t.principled(color, 0.85, normal=t.bump(height, 0.8, 0.006), specular=0.3)
+
+
+def moss(t):
+    """Moss cushion on stone: green tufts, brown dry patches, stone showing through."""
+    tufts = t.noise(t.p, 30.0, 6.0, 0.65)
+    patches = t.noise(t.p, 2.0, 5.0, 0.6, distortion=0.4)
+    green = t.ramp(tufts, [(0.3, (0.03, 0.06, 0.01)), (0.7, (0.12, 0.20, 0.03))])
+    dry = t.ramp(tufts, [(0.3, (0.08, 0.06, 0.02)), (0.7, (0.22, 0.16, 0.06))])
+    col = t.mix(t.smoothstep(patches, 0.55, 0.65), green, dry)
+    bare = t.smoothstep(patches, 0.3, 0.34)
+    color = t.mix(bare, (0.16, 0.16, 0.15), col)
+    height = t.math("MULTIPLY", tufts, bare)
+    t.principled(color, 0.95, normal=t.bump(height, 1.0, 0.02), specular=0.2, sheen=0.3)
+
+
+
 # name -> builder; the docstring's first line is the description (README, --list).
 MATERIALS = {f.__name__: f for f in (
     wood_planks, marble, rusty_metal, ceramic_tiles, leather, concrete, brick_wall,
-    woven_fabric, brushed_metal, terrazzo, tree_bark, rocky_ground, painted_metal, sand)}
+    woven_fabric, brushed_metal, terrazzo, tree_bark, rocky_ground, painted_metal, sand,
+    # the second set (session 14)
+    cobblestone, vertical_boards, granite, slate_tiles, corrugated_metal, stucco, asphalt,
+    moss)}
 
 
 def build_material(name, major=None):

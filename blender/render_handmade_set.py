@@ -143,7 +143,14 @@ def main():
     p.add_argument("--blender", default="4.3", help="3.4 (on PATH) or 4.3 (the chroot)")
     p.add_argument("--out", default=os.path.join(REPO, "tests", "handmade"))
     p.add_argument("--threads", type=int, default=0)
+    p.add_argument("--only", default=",".join(RENDERS),
+                   help="which renders, comma-separated (default all: %s); the evaluation's "
+                   "floor needs render and shifted, its flash rows flash" % ",".join(RENDERS))
     a = p.parse_args()
+    only = [k for k in a.only.split(",") if k]
+    unknown = [k for k in only if k not in RENDERS]
+    if unknown:
+        p.error("--only: unknown render(s) %s" % ", ".join(unknown))
     blender = Blender(a.blender, a.threads)
     ok = True
     try:
@@ -152,6 +159,8 @@ def main():
             d = os.path.join(a.out, name)
             os.makedirs(d, exist_ok=True)
             for kind, (seed, shift, scene_file) in RENDERS.items():
+                if kind not in only:
+                    continue
                 exr = os.path.join(d, kind + ".exr")
                 png = os.path.join(d, "preview.png") if kind == "render" else None
                 if os.path.exists(exr) and (png is None or os.path.exists(png)):
