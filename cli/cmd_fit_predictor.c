@@ -43,6 +43,10 @@ static const char *const help =
     "  --feature-mask M.npy    fit the PCA on the features M keeps (1 x features, 0/1:\n"
     "                          `imsynth forest importance --top-k K -o M.npy` of a forest\n"
     "                          fitted on the training rows only)\n"
+    "  --texstats              the network also reads 38 texture statistics of each render\n"
+    "                          (colour percentiles, the dark and bright ends' colours,\n"
+    "                          pyramid band energies, row / column detail), computed from\n"
+    "                          the stored renders (docs/predictor.md)\n"
     "  --hidden W1-W2-...      hidden layer widths (default 1024-1024)\n"
     "  --epochs E              default 60\n"
     "  --batch B               default 128\n"
@@ -122,6 +126,10 @@ int cmd_fit_predictor(int argc, char **argv)
         }
         if (!strcmp(a, "--per-tap")) {
             o.per_tap = 1;
+            continue;
+        }
+        if (!strcmp(a, "--texstats")) {
+            o.texstats = 1;
             continue;
         }
         if (i + 1 >= argc) {

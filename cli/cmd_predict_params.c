@@ -113,7 +113,12 @@ int cmd_predict_params(int argc, char **argv)
     }
     if (pipeline_descriptor_compute(pd, &prepared, desc, err, sizeof err))
         goto fail;
-    int got = predictor_predict(p, desc, (int)top_k, params, prob, err, sizeof err);
+    float stats[PIPELINE_TEXSTATS_N];
+    int use_stats = predictor_uses_texstats(p);
+    if (use_stats && pipeline_texstats(&prepared, stats, err, sizeof err))
+        goto fail;
+    int got = predictor_predict(p, desc, use_stats ? stats : NULL, (int)top_k, params, prob, err,
+                                sizeof err);
     if (got < 0)
         goto fail;
     const char *const *names = predictor_param_names(p);

@@ -604,6 +604,16 @@ int nn_pca_fit(const float *X, int n, int d, int k, int power_iters, uint64_t se
 void nn_pca_transform(float *out, const float *X, const float *components,
                       const float *variance, int n, int d, int k, int whiten, int threads);
 
+/* ---------------------------------------------------------------- texture stats ---- */
+
+/* Texture statistics (texstats.c): colour percentiles, the colours of the dark and bright
+ * ends, chroma, highlight level, band energies of a luma pyramid and horizontal / vertical
+ * detail ratios: TEXSTATS_N floats (the layout is in texstats.c) of an sRGB-encoded RGB
+ * image (h, w, 3) in [0, 1]. Deterministic. Returns 0, or -1 when a side is under 64
+ * pixels or out of memory. */
+#define TEXSTATS_N 38
+int texstats_forward(float *out, const float *rgb, int w, int h);
+
 /* ---------------------------------------------------------------- checkpoints ------ */
 
 /* Tensor writer: n tensors (shapes up to 2-D) and string metadata pairs into a

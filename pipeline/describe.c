@@ -238,3 +238,33 @@ int pipeline_descriptor_compute(pipeline_descriptor *d, const image *img, float 
     free(h);
     return 0;
 }
+
+_Static_assert(PIPELINE_TEXSTATS_N == TEXSTATS_N, "pipeline.h's count of texture statistics");
+
+int pipeline_texstats(const image *img, float *out, char *err, size_t errlen)
+{
+    const int side = 224; /* the descriptors' crop (mnv2_preprocess, vgg_preprocess) */
+    size_t n = (size_t)side * side;
+    float *chw = malloc(3 * n * sizeof *chw), *hwc = malloc(3 * n * sizeof *hwc);
+    int rc = -1;
+    if (!chw || !hwc)
+        pipeline_error(err, errlen, "out of memory");
+    else if (mnv2_preprocess(chw, img->pixels, img->width, img->height, img->channels))
+        pipeline_error(err, errlen, "image of %d x %d: texture statistics need at least "
+                                    "224 x 224",
+                       img->width, img->height);
+    else {
+        // the crop, clamped to [0, 1], sRGB-encoded: a perceptual scale, so that the
+        // statistics of dark materials are not crowded near 0
+        for (size_t p = 0; p < n; p++)
+            for (int c = 0; c < 3; c++)
+                hwc[3 * p + (size_t)c] = linear_to_srgb(chw[(size_t)c * n + p]);
+        if (texstats_forward(out, hwc, side, side))
+            pipeline_error(err, errlen, "out of memory");
+        else
+            rc = 0;
+    }
+    free(chw);
+    free(hwc);
+    return rc;
+}

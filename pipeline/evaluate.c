@@ -337,13 +337,19 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
         pthread_mutex_unlock(&sh->lock);
         break;
     }
-    case SOURCE_PREDICTOR:
+    case SOURCE_PREDICTOR: {
+        float stats[TEXSTATS_N];
+        int use_stats = predictor_uses_texstats(sh->pred);
+        if (use_stats && pipeline_texstats(&iw->in->img, stats, err, errlen))
+            return -1;
         pthread_mutex_lock(&sh->lock);
-        n = predictor_predict(sh->pred, desc, k, params, NULL, err, errlen);
+        n = predictor_predict(sh->pred, desc, use_stats ? stats : NULL, k, params, NULL, err,
+                              errlen);
         pthread_mutex_unlock(&sh->lock);
         for (int j = 0; j < n; j++)
             ids[j] = -1;
         break;
+    }
     }
     if (n == 0)
         return pipeline_error(err, errlen, "no candidate");

@@ -181,6 +181,12 @@ int pipeline_descriptor_layers(const pipeline_descriptor *d, size_t offsets[64])
 int pipeline_descriptor_compute(pipeline_descriptor *d, const image *img, float *out,
                                 char *err, size_t errlen);
 
+#define PIPELINE_TEXSTATS_N 38 /* nn's TEXSTATS_N (asserted equal in describe.c) */
+/* The texture statistics (nn's texstats_forward: PIPELINE_TEXSTATS_N floats into out) of the
+ * centre 224 x 224 crop the descriptors see, clamped to [0, 1] and sRGB-encoded; a grey
+ * image counts as R = G = B. Returns 0, or -1 with a message. */
+int pipeline_texstats(const image *img, float *out, char *err, size_t errlen);
+
 /* ---------------------------------------------------------------- dataset ---------- */
 
 typedef struct dataset dataset;
@@ -348,13 +354,18 @@ const float *predictor_mean_params(const predictor *p);
 size_t predictor_catalogue_size(const predictor *p);
 const float *predictor_catalogue_params(const predictor *p, size_t i, long long *id);
 
-/* Up to k hypotheses for a descriptor (predictor_descriptor_size floats), most probable
- * first: the k likeliest combinations of the selectors under the network's (independent)
- * softmax heads, each with the value parameters the network predicts.
- * params (k x n_params), prob (k, may be NULL): the combination's probability.
+/* Whether the network also reads the image's texture statistics (pipeline_texstats),
+ * which predictor_predict then needs. */
+int predictor_uses_texstats(const predictor *p);
+
+/* Up to k hypotheses for a descriptor (predictor_descriptor_size floats) and, when the
+ * model uses them, the same image's texture statistics (PIPELINE_TEXSTATS_N floats; may be NULL
+ * otherwise), most probable first: the k likeliest combinations of the selectors under
+ * the network's (independent) softmax heads, each with the value parameters the network
+ * predicts. params (k x n_params), prob (k, may be NULL): the combination's probability.
  * Returns the number written (>= 1), or -1 with a message. */
-int predictor_predict(predictor *p, const float *descriptor, int k, float *params,
-                      double *prob, char *err, size_t errlen);
+int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
+                      float *params, double *prob, char *err, size_t errlen);
 
 /* The k catalogue samples nearest to a descriptor in the model's reduced input space
  * (Euclidean over the whitened PCA components), nearest first: index (k), dist (k, may
@@ -382,6 +393,8 @@ typedef struct predictor_fit_options {
                                    * PCA of each tap's values alone (predictor_fit.c) */
     const char *feature_mask_path; /* NULL, or a 1 x d 0/1 .npy: the PCA sees only its
                                     * features (a forest's: `forest importance`) */
+    int texstats;                 /* the network also reads each render's texture
+                                   * statistics (pipeline_texstats), after the components */
     int half;                     /* store the PCA basis and the catalogue's reduced
                                    * descriptors as float16 (the basis rounded before it is
                                    * used, so training and prediction see the same values):

@@ -75,6 +75,10 @@ void predictor_transform_row(float *x, size_t d, const float *scale, const float
                              const float *std);
 /* Fits scale (mean |x|), mean and std over X (n, d) and transforms X in place. */
 int predictor_transform_fit(float *X, size_t n, size_t d, float *scale, float *mean, float *std);
+/* out (TEXSTATS_N) = (raw - mean) / std: the texture statistics as the network reads them
+ * (one definition for training and prediction). */
+void predictor_texstats_standardise(float *out, const float *raw, const float *mean,
+                                    const float *std);
 /* Tensor `name` of exactly count floats, every one finite. */
 int predictor_read_tensor(const nn_safetensors *st, const char *name, float *out, size_t count,
                           char *err, size_t errlen);

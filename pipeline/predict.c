@@ -526,7 +526,12 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    int n_pred = predictor_predict(pred, sc.target_desc, o->top_k, cand_params, prob, err, errlen);
+    float stats[TEXSTATS_N];
+    int use_stats = predictor_uses_texstats(pred);
+    if (use_stats && pipeline_texstats(&input, stats, err, errlen))
+        goto done;
+    int n_pred = predictor_predict(pred, sc.target_desc, use_stats ? stats : NULL, o->top_k,
+                                   cand_params, prob, err, errlen);
     if (n_pred < 0)
         goto done;
     for (int i = 0; i < n_pred; i++)

@@ -42,12 +42,14 @@ struct predictor {
     float *scale, *mean, *std;      /* (d) the signed-log transform and standardisation */
     float *components, *variance;   /* (k, d), (k) */
     float *mean_params;             /* (n_params) */
+    int ns;                         /* texture statistics after the components: 0 or TEXSTATS_N */
+    float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     nn_mlp net;
     size_t n_cat;
     float *cat_z, *cat_params;      /* (n_cat, k), (n_cat, n_params) */
     long long *cat_id;
     char *dataset_config;
-    float *x, *z, *out;             /* scratch: (d), (k), (outputs) */
+    float *x, *z, *out;             /* scratch: (d), (k + ns), (outputs) */
 };
 
 /* ---------------------------------------------------------------- layout ----------- */
@@ -313,6 +315,14 @@ static int read_model_json(predictor *p, const char *path, char *err, size_t err
         pipeline_error(err, errlen, "%s: models of masked descriptors are not supported", path);
         goto done;
     }
+    const cJSON *ts = cJSON_GetObjectItemCaseSensitive(tr, "texstats");
+    if (ts && (!cJSON_IsNumber(ts) || (ts->valuedouble != 0 && ts->valuedouble != TEXSTATS_N))) {
+        pipeline_error(err, errlen, "%s: \"transform\".\"texstats\" must be 0 or %d (the texture "
+                                    "statistics this imsynth computes)",
+                       path, TEXSTATS_N);
+        goto done;
+    }
+    p->ns = ts ? (int)ts->valuedouble : 0;
     p->d = (size_t)feat->valuedouble;
     p->k = (int)comp->valuedouble;
     p->kind = pipeline_descriptor_kind_named(kind->valuestring);
@@ -384,7 +394,7 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
     p->variance = malloc(k * sizeof(float));
     p->mean_params = malloc(np * sizeof(float));
     p->x = malloc(d * sizeof(float));
-    p->z = malloc(k * sizeof(float));
+    p->z = malloc((k + (size_t)p->ns) * sizeof(float));
     if (!p->scale || !p->mean || !p->std || !p->components || !p->variance || !p->mean_params ||
         !p->x || !p->z) {
         pipeline_error(err, errlen, "%s: out of memory for %zu features", dir, d);
@@ -395,8 +405,18 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
         predictor_read_tensor(&st, "standardise.std", p->std, d, err, errlen) ||
         predictor_read_tensor(&st, "pca.components", p->components, k * d, err, errlen) ||
         predictor_read_tensor(&st, "pca.variance", p->variance, k, err, errlen) ||
-        predictor_read_tensor(&st, "params.mean", p->mean_params, np, err, errlen))
+        predictor_read_tensor(&st, "params.mean", p->mean_params, np, err, errlen) ||
+        (p->ns && (predictor_read_tensor(&st, "texstats.mean", p->stats_mean, TEXSTATS_N, err,
+                                         errlen) ||
+                   predictor_read_tensor(&st, "texstats.std", p->stats_std, TEXSTATS_N, err,
+                                         errlen))))
         goto fail;
+    for (int j = 0; j < p->ns; j++)
+        if (!(p->stats_std[j] > 0)) {
+            pipeline_error(err, errlen, "%s: texture statistic %d has a std that is not positive",
+                           path, j);
+            goto fail;
+        }
     for (size_t j = 0; j < d; j++)
         if (!(p->scale[j] > 0) || !(p->std[j] > 0)) {
             pipeline_error(err, errlen, "%s: feature %zu has a scale or std that is not positive",
@@ -412,11 +432,12 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
         goto fail;
     }
     int outputs = predictor_layout_outputs(&p->lay);
-    if (p->net.cfg.width[0] != p->k || p->net.cfg.width[p->net.cfg.n_linear] != outputs) {
+    if (p->net.cfg.width[0] != p->k + p->ns ||
+        p->net.cfg.width[p->net.cfg.n_linear] != outputs) {
         pipeline_error(err, errlen, "%s: the network maps %d inputs to %d outputs; the model "
                                     "needs %d to %d",
-                       path, p->net.cfg.width[0], p->net.cfg.width[p->net.cfg.n_linear], p->k,
-                       outputs);
+                       path, p->net.cfg.width[0], p->net.cfg.width[p->net.cfg.n_linear],
+                       p->k + p->ns, outputs);
         goto fail;
     }
     p->net.threads = 1;
@@ -480,6 +501,7 @@ const char *const *predictor_param_names(const predictor *p)
 datagen_descriptor predictor_descriptor_kind(const predictor *p) { return p->kind; }
 const char *predictor_dir(const predictor *p) { return p->dir; }
 size_t predictor_descriptor_size(const predictor *p) { return p->d; }
+int predictor_uses_texstats(const predictor *p) { return p->ns > 0; }
 const char *predictor_dataset_config(const predictor *p) { return p->dataset_config; }
 const float *predictor_mean_params(const predictor *p) { return p->mean_params; }
 size_t predictor_catalogue_size(const predictor *p) { return p->n_cat; }
@@ -509,13 +531,29 @@ typedef struct combo {
     int cls[NN_MAX_HEADS];
 } combo;
 
-int predictor_predict(predictor *p, const float *descriptor, int k, float *params, double *prob,
-                      char *err, size_t errlen)
+void predictor_texstats_standardise(float *out, const float *raw, const float *mean,
+                                    const float *std)
+{
+    for (int j = 0; j < TEXSTATS_N; j++)
+        out[j] = (raw[j] - mean[j]) / std[j];
+}
+
+int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
+                      float *params, double *prob, char *err, size_t errlen)
 {
     if (k < 1)
         return pipeline_error(err, errlen, "top-k: k must be at least 1");
+    if (p->ns && !texstats)
+        return pipeline_error(err, errlen, "%s: the model reads the image's texture statistics; "
+                                           "none were given",
+                              p->dir);
+    for (int j = 0; j < p->ns; j++)
+        if (!isfinite(texstats[j]))
+            return pipeline_error(err, errlen, "texture statistic %d is not finite", j);
     if (reduce(p, descriptor, err, errlen))
         return -1;
+    if (p->ns)
+        predictor_texstats_standardise(p->z + p->k, texstats, p->stats_mean, p->stats_std);
     if (nn_mlp_forward(&p->net, p->z, 1, p->out))
         return pipeline_error(err, errlen, "out of memory");
     const param_layout *L = &p->lay;

@@ -54,7 +54,10 @@ typedef struct rowset {
     float *params;    /* (n, n_params) */
     uint8_t *active;  /* (n, n_params) */
     long long *ids;
-    float *Z;         /* (n, k) reduced inputs */
+    float *S;         /* (n, TEXSTATS_N) texture statistics (only with o->texstats),
+                       * then standardised */
+    float *Z;         /* (n, k) reduced descriptors (the catalogue's) */
+    float *input;         /* (n, k + s) the network's inputs: Z, then S when used */
     float *Y, *M;     /* (n, yc) targets and masks */
 } rowset;
 
@@ -64,13 +67,15 @@ static void rowset_free(rowset *r)
     free(r->params);
     free(r->active);
     free(r->ids);
+    free(r->S);
     free(r->Z);
+    free(r->input);
     free(r->Y);
     free(r->M);
     memset(r, 0, sizeof *r);
 }
 
-static int rowset_push(rowset *r, const dataset_row *row, size_t d, int np)
+static int rowset_push(rowset *r, const dataset_row *row, const float *stats, size_t d, int np)
 {
     if (r->n == r->cap) {
         size_t cap = r->cap ? r->cap * 2 : r->hint ? r->hint : 1024;
@@ -86,13 +91,18 @@ static int rowset_push(rowset *r, const dataset_row *row, size_t d, int np)
         long long *ids = realloc(r->ids, cap * sizeof(long long));
         if (ids)
             r->ids = ids;
-        if (!X || !P || !A || !ids)
+        float *S = stats ? realloc(r->S, cap * TEXSTATS_N * sizeof(float)) : r->S;
+        if (S)
+            r->S = S;
+        if (!X || !P || !A || !ids || (stats && !S))
             return -1;
         r->cap = cap;
     }
     memcpy(r->X + r->n * d, row->descriptor, d * sizeof(float));
     memcpy(r->params + r->n * (size_t)np, row->params, (size_t)np * sizeof(float));
     memcpy(r->active + r->n * (size_t)np, row->active, (size_t)np);
+    if (stats)
+        memcpy(r->S + r->n * TEXSTATS_N, stats, TEXSTATS_N * sizeof(float));
     r->ids[r->n++] = row->id;
     return 0;
 }
@@ -105,8 +115,10 @@ static int is_validation_id(long long id, double fraction)
 }
 
 /* Reads a dataset's rows; with fraction >= 0 splits them into train and val by id (else
- * all into train). Checks the descriptor is stored and every value finite. */
-static int read_rows(const char *path, double fraction, long long max_ids, rowset *train,
+ * all into train). Checks the descriptor is stored and every value finite. With texstats,
+ * also the texture statistics of every row's stored render. */
+static int read_rows(const char *path, double fraction, long long max_ids, int texstats,
+                     rowset *train,
                      rowset *val, size_t *d_out, char ***names_out, int *np_out,
                      char **config_out, char *err, size_t errlen)
 {
@@ -149,7 +161,7 @@ static int read_rows(const char *path, double fraction, long long max_ids, rowse
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    if (!(it = dataset_iter_new(ds, 1, 0, err, errlen)))
+    if (!(it = dataset_iter_new(ds, 1, texstats, err, errlen)))
         goto done;
     if (!train->cap)
         train->hint = (size_t)info.rows;
@@ -175,8 +187,23 @@ static int read_rows(const char *path, double fraction, long long max_ids, rowse
                                path, row.id, row.view, j);
                 goto done;
             }
+        float stats[TEXSTATS_N];
+        if (texstats) {
+            char msg[512];
+            if (!row.img.pixels) {
+                pipeline_error(err, errlen, "%s: id %lld view %d: no render stored (made with "
+                                            "--images none), so no texture statistics",
+                               path, row.id, row.view);
+                goto done;
+            }
+            if (pipeline_texstats(&row.img, stats, msg, sizeof msg)) {
+                pipeline_error(err, errlen, "%s: id %lld view %d: %s", path, row.id, row.view,
+                               msg);
+                goto done;
+            }
+        }
         rowset *dst = to_val ? val : train;
-        if (rowset_push(dst, &row, info.descriptor_size, np)) {
+        if (rowset_push(dst, &row, texstats ? stats : NULL, info.descriptor_size, np)) {
             pipeline_error(err, errlen, "%s: out of memory at row %zu", path,
                            train->n + (val ? val->n : 0));
             goto done;
@@ -386,19 +413,54 @@ static void run_file(char *out, size_t len, const char *dir, const char *what, i
 
 static int write_transform(const char *path, const float *scale, const float *mean,
                            const float *std, const float *comp, const float *var,
-                           const float *mean_params, size_t d, int k, int np, int half,
+                           const float *mean_params, const float *stats_mean,
+                           const float *stats_std, size_t d, int k, int np, int half,
                            char *err, size_t errlen)
 {
-    nn_tensor_out t[6] = {
+    nn_tensor_out t[8] = {
         {"signed_log.scale", 1, {(int64_t)d}, scale},
         {"standardise.mean", 1, {(int64_t)d}, mean},
         {"standardise.std", 1, {(int64_t)d}, std},
         {"pca.components", 2, {k, (int64_t)d}, comp, half ? NN_F16 : NN_F32},
         {"pca.variance", 1, {k}, var},
         {"params.mean", 1, {np}, mean_params},
+        {"texstats.mean", 1, {TEXSTATS_N}, stats_mean},
+        {"texstats.std", 1, {TEXSTATS_N}, stats_std},
     };
     const char *meta[] = {"format", "imsynth-model-transform/1"};
-    return nn_safetensors_write(path, t, 6, meta, 1, err, errlen);
+    return nn_safetensors_write(path, t, stats_mean ? 8 : 6, meta, 1, err, errlen);
+}
+
+/* mean and std (TEXSTATS_N each) of the statistics S (n rows), a std of 0 taken as 1. */
+static void texstats_standardisation(const float *S, size_t n, float *mean, float *std)
+{
+    for (int c = 0; c < TEXSTATS_N; c++) {
+        double s = 0, ss = 0;
+        for (size_t i = 0; i < n; i++)
+            s += S[i * TEXSTATS_N + (size_t)c];
+        double m = s / (double)n;
+        for (size_t i = 0; i < n; i++) {
+            double v = S[i * TEXSTATS_N + (size_t)c] - m;
+            ss += v * v;
+        }
+        double sd = sqrt(ss / (double)n);
+        mean[c] = (float)m;
+        std[c] = sd > 0 ? (float)sd : 1.0f;
+    }
+}
+
+/* r->input (n, k + ns) = each row's reduced descriptor, then (ns > 0) its standardised
+ * texture statistics: what the network reads, as predictor_predict forms it. */
+static void network_inputs(rowset *r, int k, int ns, const float *stats_mean,
+                           const float *stats_std)
+{
+    size_t kin = (size_t)(k + ns);
+    for (size_t i = 0; i < r->n; i++) {
+        memcpy(r->input + i * kin, r->Z + i * (size_t)k, (size_t)k * sizeof(float));
+        if (ns)
+            predictor_texstats_standardise(r->input + i * kin + k, r->S + i * TEXSTATS_N,
+                                           stats_mean, stats_std);
+    }
 }
 
 static int write_catalogue(const char *path, const rowset *full, int k, int np, int half,
@@ -459,7 +521,7 @@ static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val
         return -1;
     for (size_t i = 0; i < val->n; i += 256) {
         int B = val->n - i < 256 ? (int)(val->n - i) : 256;
-        if (nn_mlp_predict(net, val->Z + i * (size_t)net->cfg.width[0], B,
+        if (nn_mlp_predict(net, val->input + i * (size_t)net->cfg.width[0], B,
                            pred + i * (size_t)yc)) {
             free(pred);
             return -1;
@@ -525,6 +587,8 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     cJSON_AddNumberToObject(j, "train_rows", (double)n_train);
     cJSON_AddNumberToObject(j, "val_rows", (double)n_val);
     cJSON_AddNumberToObject(j, "components", o->components);
+    if (o->texstats)
+        cJSON_AddNumberToObject(j, "texstats", TEXSTATS_N);
     if (o->per_tap)
         cJSON_AddStringToObject(j, "reduction", "per-tap");
     if (*mask_sha) {
@@ -667,6 +731,11 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON_AddStringToObject(tr, "signed_log", "t = sign(x) log1p(|x| / s), s = mean |x|");
     cJSON_AddStringToObject(tr, "standardise", "(t - mean) / std over the training rows");
     cJSON_AddNumberToObject(tr, "components", o->components);
+    if (o->texstats) {
+        cJSON_AddNumberToObject(tr, "texstats", TEXSTATS_N);
+        cJSON_AddStringToObject(tr, "texstats_input", "the render's texture statistics "
+                                "(nn texstats_forward), standardised, after the components");
+    }
     cJSON_AddStringToObject(tr, "pca",
                             o->feature_mask_path
                                 ? "of the feature mask's values only; randomized SVD, 2 power "
@@ -717,6 +786,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     float *scale = NULL, *mean = NULL, *std = NULL, *comp = NULL, *var = NULL, *mean_p = NULL;
     float *best_w = NULL, *bx = NULL, *by = NULL, *bm = NULL, *mean_y = NULL;
     float *feature_mask = NULL;
+    float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     char mask_sha[65] = "";
     size_t *order = NULL;
     nn_mlp net = {0};
@@ -740,11 +810,11 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
 
     // 1. rows
     if (read_rows(o->dataset_path, o->val_dataset_path ? -1.0 : o->val_fraction, o->max_ids,
-                  &train, &val, &d, &names, &np, &config, err, errlen))
+                  o->texstats, &train, &val, &d, &names, &np, &config, err, errlen))
         goto done;
     if (o->val_dataset_path) {
-        if (read_rows(o->val_dataset_path, -1.0, 0, &val, NULL, &d, NULL, &np, &vconfig, err,
-                      errlen))
+        if (read_rows(o->val_dataset_path, -1.0, 0, o->texstats, &val, NULL, &d, NULL, &np,
+                      &vconfig, err, errlen))
             goto done;
         char why[128];
         if (!configs_compatible(config, vconfig, why, sizeof why)) {
@@ -771,7 +841,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     if (predictor_layout_make(&L, (const char *const *)names, np, err, errlen))
         goto done;
     int outputs = predictor_layout_outputs(&L), yc = L.n_values + L.n_selectors, k = o->components;
-    snprintf(arch, sizeof arch, "mlp:%d-%s-%d,ln,dropout=%g", k, o->hidden, outputs,
+    int ns = o->texstats ? TEXSTATS_N : 0, kin = k + ns; /* the network's input width */
+    snprintf(arch, sizeof arch, "mlp:%d-%s-%d,ln,dropout=%g", kin, o->hidden, outputs,
              (double)o->dropout);
     nn_mlp_config cfg;
     if (nn_mlp_parse_arch(arch, &cfg, msg, sizeof msg)) {
@@ -825,7 +896,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     mean_p = calloc((size_t)np, sizeof(float));
     train.Z = malloc(train.n * (size_t)k * sizeof(float));
     val.Z = malloc(val.n * (size_t)k * sizeof(float));
-    if (!scale || !mean || !std || !comp || !var || !mean_p || !train.Z || !val.Z) {
+    train.input = malloc(train.n * (size_t)kin * sizeof(float));
+    val.input = malloc(val.n * (size_t)kin * sizeof(float));
+    if (!scale || !mean || !std || !comp || !var || !mean_p || !train.Z || !val.Z || !train.input ||
+        !val.input) {
         pipeline_error(err, errlen, "out of memory for the transform");
         goto done;
     }
@@ -838,7 +912,11 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
                   predictor_read_tensor(&tst, "pca.components", comp, (size_t)k * d, err,
                                         errlen) ||
                   predictor_read_tensor(&tst, "pca.variance", var, (size_t)k, err, errlen) ||
-                  predictor_read_tensor(&tst, "params.mean", mean_p, (size_t)np, err, errlen);
+                  predictor_read_tensor(&tst, "params.mean", mean_p, (size_t)np, err, errlen) ||
+                  (ns && (predictor_read_tensor(&tst, "texstats.mean", stats_mean, TEXSTATS_N,
+                                                err, errlen) ||
+                          predictor_read_tensor(&tst, "texstats.std", stats_std, TEXSTATS_N, err,
+                                                errlen)));
         nn_safetensors_close(&tst);
         if (bad)
             goto done;
@@ -866,9 +944,11 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         for (size_t i = 0; i < train.n; i++)
             for (int c = 0; c < np; c++)
                 mean_p[c] += train.params[i * (size_t)np + (size_t)c] / (float)train.n;
+        if (ns)
+            texstats_standardisation(train.S, train.n, stats_mean, stats_std);
         text = state_json(settings, &st); /* epochs_done 0: a kill from here on resumes */
-        if (write_transform(path, scale, mean, std, comp, var, mean_p, d, k, np, o->half, msg,
-                            sizeof msg) ||
+        if (write_transform(path, scale, mean, std, comp, var, mean_p, ns ? stats_mean : NULL,
+                            ns ? stats_std : NULL, d, k, np, o->half, msg, sizeof msg) ||
             !text || pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
             goto done;
@@ -878,6 +958,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         predictor_transform_row(val.X + i * d, d, scale, mean, std);
     nn_pca_transform(train.Z, train.X, comp, var, (int)train.n, (int)d, k, 1, o->threads);
     nn_pca_transform(val.Z, val.X, comp, var, (int)val.n, (int)d, k, 1, o->threads);
+    network_inputs(&train, k, ns, stats_mean, stats_std);
+    network_inputs(&val, k, ns, stats_mean, stats_std);
     free(train.X);
     free(val.X);
     train.X = val.X = NULL;
@@ -937,13 +1019,13 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     }
     net.threads = o->threads > 0 ? o->threads : 1;
     net.dropout_seed = o->seed;
-    if (nn_mlp_check_data(&net, train.Z, train.Y, train.M, train.n, msg, sizeof msg) ||
-        nn_mlp_check_data(&net, val.Z, val.Y, val.M, val.n, msg, sizeof msg)) {
+    if (nn_mlp_check_data(&net, train.input, train.Y, train.M, train.n, msg, sizeof msg) ||
+        nn_mlp_check_data(&net, val.input, val.Y, val.M, val.n, msg, sizeof msg)) {
         pipeline_error(err, errlen, "%s", msg);
         goto done;
     }
     best_w = malloc(net.n_floats * sizeof(float));
-    bx = malloc((size_t)o->batch * (size_t)k * sizeof(float));
+    bx = malloc((size_t)o->batch * (size_t)kin * sizeof(float));
     by = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
     bm = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
     order = malloc(train.n * sizeof(size_t));
@@ -973,7 +1055,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
             size_t first;
             int count;
             nn_step_batch((long long)e * per_epoch + s, train.n, o->batch, &epoch, &first, &count);
-            nn_gather_rows(bx, train.Z, (size_t)k, order + first, (size_t)count);
+            nn_gather_rows(bx, train.input, (size_t)kin, order + first, (size_t)count);
             nn_gather_rows(by, train.Y, (size_t)yc, order + first, (size_t)count);
             nn_gather_rows(bm, train.M, (size_t)yc, order + first, (size_t)count);
             double loss;
@@ -985,7 +1067,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         }
         double vl;
         fit_metrics fm;
-        if (nn_mlp_evaluate(&net, val.Z, val.Y, val.M, (int)val.n, &vl) ||
+        if (nn_mlp_evaluate(&net, val.input, val.Y, val.M, (int)val.n, &vl) ||
             compute_metrics(&net, &L, &val, &train, mean_y, &fm)) {
             pipeline_error(err, errlen, "out of memory");
             goto done;

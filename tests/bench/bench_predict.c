@@ -53,14 +53,16 @@ int main(int argc, char **argv)
     dataset_row row;
     while (done < n && dataset_iter_next(it, &row, err, sizeof err) == 1) {
         double a = now();
-        if (pipeline_descriptor_compute(pd, &row.img, desc, err, sizeof err)) {
+        float stats[PIPELINE_TEXSTATS_N];
+        if (pipeline_descriptor_compute(pd, &row.img, desc, err, sizeof err) ||
+            pipeline_texstats(&row.img, stats, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);
             return 1;
         }
         double b = now();
-        predictor_predict(p, desc, 1, params, NULL, err, sizeof err);
+        predictor_predict(p, desc, stats, 1, params, NULL, err, sizeof err);
         double c = now();
-        predictor_predict(p, desc, k, params, NULL, err, sizeof err);
+        predictor_predict(p, desc, stats, k, params, NULL, err, sizeof err);
         double d = now();
         predictor_nearest(p, desc, k, index, NULL, err, sizeof err);
         double e = now();

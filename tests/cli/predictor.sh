@@ -202,6 +202,48 @@ for bad in "short.npy:100 values, the descriptors have 38808" "two.npy:value 0 i
 done
 "$imsynth" fit-predictor $fit --per-tap --feature-mask "$tmp/fmask.npy" -o "$tmp/mb" 2> "$tmp/err"
 check "--per-tap with --feature-mask is a usage error" 2 $?
+# --texstats: the network reads 8 components and 38 texture statistics; the transform
+# keeps their standardisation; the model predicts, and its predictions depend on the image
+# (two images, two answers); kill -9 and resume still gives the uninterrupted bytes
+"$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 1 -o "$tmp/ms"; check "fit --texstats" 0 $?
+py "
+import json, struct
+b = open('$tmp/ms/transform.safetensors', 'rb').read(); n = struct.unpack('<Q', b[:8])[0]
+h = json.loads(b[8:8 + n])
+assert h['texstats.mean']['shape'] == [38] and h['texstats.std']['shape'] == [38], h.keys()
+m = json.load(open('$tmp/ms/model.json'))
+assert m['transform']['texstats'] == 38 and m['network']['arch'].startswith('mlp:46-'), m['network']
+"
+check "texture statistics in the transform, 8 + 38 network inputs" 0 $?
+"$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 2 -o "$tmp/mk2" &
+pid=$!; sleep 0.7; kill -9 $pid 2> /dev/null; wait $pid 2> /dev/null
+[ -d "$tmp/mk2" ] || "$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 2 -o "$tmp/mk2"
+cmp -s "$tmp/ms/network.safetensors" "$tmp/mk2/network.safetensors"
+check "--texstats: killed and resumed equals uninterrupted" 0 $?
+"$imsynth" fit-predictor $fit --epochs 5000 --texstats -o "$tmp/mx" &
+pid=$!
+i=0
+while [ ! -e "$tmp/mx.partial/state.json" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+kill -9 $pid 2> /dev/null
+wait $pid 2> /dev/null
+"$imsynth" fit-predictor $fit --epochs 5000 -o "$tmp/mx" 2> "$tmp/err"
+check "a run without --texstats does not continue one with it" 1 $?
+expect_stderr "says how to go on" "restart"
+img2="$root/tests/reference/render/supershader_s2/blender-4.3-a.exr"
+"$imsynth" predict-params "$img" --model "$tmp/ms" -o "$tmp/ps1.json" &&
+    "$imsynth" predict-params "$img2" --model "$tmp/ms" -o "$tmp/ps2.json"
+check "a --texstats model predicts" 0 $?
+cmp -s "$tmp/ps1.json" "$tmp/ps2.json"
+check "two images, two predictions" 1 $?
+cp -r "$tmp/ms" "$tmp/bs"
+py "
+import json
+m = json.load(open('$tmp/bs/model.json')); m['transform']['texstats'] = 12
+json.dump(m, open('$tmp/bs/model.json', 'w'))
+"
+"$imsynth" predict-params "$img" --model "$tmp/bs" 2> "$tmp/err"
+check "a model claiming 12 texture statistics" 1 $?
+expect_stderr "names the file and the field" "bs/model.json: \"transform\".\"texstats\" must be 0 or 38"
 # without --model: the bundled model, as predict and search use it
 "$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
 check "predict-params without --model" 0 $?

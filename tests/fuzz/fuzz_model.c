@@ -59,7 +59,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     double prob[2], dist[2];
     size_t index[2];
     if (desc && params) {
-        predictor_predict(p, desc, 2, params, prob, err, sizeof err);
+        float stats[PIPELINE_TEXSTATS_N] = {0}; /* what a flat grey image would give is not needed:
+                                        * any finite statistics exercise the path */
+        predictor_predict(p, desc, stats, 2, params, prob, err, sizeof err);
         int n = predictor_nearest(p, desc, 2, index, dist, err, sizeof err);
         for (int i = 0; i < n; i++)
             if (index[i] >= predictor_catalogue_size(p))
