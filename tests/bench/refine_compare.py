@@ -4,9 +4,11 @@
 B / A. The medians of the reports' own tables compare different inputs' values; this pairs
 them.
 
-    python3 tests/bench/refine_compare.py REPORT_A REPORT_B [REPORT_A2 REPORT_B2 ...]
+    python3 tests/bench/refine_compare.py [--methods M1,M2] REPORT_A REPORT_B [REPORT_A2 REPORT_B2 ...]
 
-With more pairs (one per input set, say), the counts are summed over the pairs.
+With more pairs (one per input set, say), the counts are summed over the pairs. --methods
+compares those rows instead of the -refine ones (e.g. predictor,predictor-topk for two
+models evaluated on the same inputs).
 """
 import csv
 import statistics
@@ -22,6 +24,10 @@ def load(report):
 
 
 def main(argv):
+    methods = None
+    if argv[:1] == ["--methods"] and len(argv) > 1:
+        methods = set(argv[1].split(","))
+        argv = argv[2:]
     if len(argv) < 2 or len(argv) % 2:
         sys.exit(__doc__)
     ratios = {}
@@ -29,7 +35,8 @@ def main(argv):
         a, b = load(a_dir), load(b_dir)
         for key, va in a.items():
             s, name, m, d = key
-            if m.endswith("-refine") and key in b and va > 0:
+            wanted = m in methods if methods else m.endswith("-refine")
+            if wanted and key in b and va > 0:
                 ratios.setdefault((m, d), []).append(b[key] / va)
     print(f"B = {' '.join(argv[1::2])} against A = {' '.join(argv[0::2])}")
     print("| row | distance | inputs | B better | median B / A |")
