@@ -42,7 +42,7 @@ run_writer() { # name OUT
     predict) "$imsynth" predict "$img" --model "$tmp/model" --top-k 1 --nearest 1 --refine 2 \
         --search-preset draft --final-preset draft --quiet -o "$o/pred" ;;
     evaluate) "$imsynth" evaluate --model "$tmp/model" --test "$tmp/test.sqlite" --top-k 1 \
-        --preset draft -o "$o/report" ;;
+        --refine 2 --preset draft -o "$o/report" ;;
     esac
 }
 writers="render describe datagen forest train fit-predictor predict evaluate"
