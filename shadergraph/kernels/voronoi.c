@@ -890,9 +890,9 @@ static inline void voronoi_point(const sg_kernel_args *a, const voronoi_params *
         out[OUT_RADIUS][i] = radius;
 }
 
-/* ---- F1 of many points at once ------------------------------------------------------
+/* ---- F1 and F2 of many points at once ----------------------------------------------
  *
- * The batch kernel evaluates F1 for LANES points side by side when every one of
+ * The batch kernel evaluates F1 or F2 for LANES points side by side when every one of
  * them needs a single octave (Blender 3.x, or Detail or Roughness 0: the node's
  * defaults). Lane k scans point k's cells in the scalar order with the scalar
  * operations (the same hashes, distance sums in the same order, a strict `<` so the
@@ -947,10 +947,12 @@ static inline lane_f lane_distance(const lane_f *a, const lane_f *b, int dims, i
     }
 }
 
-/* voronoi_f1 of each lane's coordinates; position as to_position lays it out. */
-static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
-                                   lane_f randomness, const float *exponent, lane_f *distance,
-                                   lane_f *color, lane_f *position)
+/* voronoi_f1 (second: voronoi_f2) of each lane's coordinates; position as to_position
+ * lays it out. F2 keeps the scalar order of updates: a closer point demotes F1 to F2, a
+ * point between the two replaces F2 (strict `<` both times, so ties resolve alike). */
+static inline void lane_voronoi_nearest(const voronoi_params *p, const lane_f *coord,
+                                        lane_f randomness, const float *exponent, bool second,
+                                        lane_f *distance, lane_f *color, lane_f *position)
 {
     const int dims = p->dims;
     lane_f cell[4], local[4], zero = lane_splat(0.0f);
@@ -959,8 +961,9 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
         local[c] = coord[c] - cell[c];
     }
 
-    lane_f min_distance = lane_splat(search_start(p));
+    lane_f min_distance = lane_splat(search_start(p)), f2_distance = min_distance;
     lane_f target_offset[4] = {zero, zero, zero, zero}, target_point[4] = {zero, zero, zero, zero};
+    lane_f f2_offset[4] = {zero, zero, zero, zero}, f2_point[4] = {zero, zero, zero, zero};
     int o[4] = {-1, -1, -1, -1};
     const int n = scan_count(1, dims);
     for (int idx = 0; idx < n; idx++) {
@@ -975,6 +978,17 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
             pt[c] = lane_madd(j[c], randomness, offset[c]);
         lane_f d = lane_distance(pt, local, dims, p->metric, exponent);
         lane_u closer = (lane_u)(d < min_distance);
+        if (second) {
+            /* voronoi_f2_n's else-if: between F1 and F2, and not closer than F1 */
+            lane_u between = (lane_u)(d < f2_distance) & ~closer;
+            f2_distance = lane_select(closer, min_distance, lane_select(between, d, f2_distance));
+            for (int c = 0; c < dims; c++) {
+                f2_offset[c] = lane_select(closer, target_offset[c],
+                                           lane_select(between, offset[c], f2_offset[c]));
+                f2_point[c] = lane_select(closer, target_point[c],
+                                          lane_select(between, pt[c], f2_point[c]));
+            }
+        }
         min_distance = lane_select(closer, d, min_distance);
         for (int c = 0; c < dims; c++) {
             target_offset[c] = lane_select(closer, offset[c], target_offset[c]);
@@ -982,6 +996,13 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
         }
         for (int c = 0; c < dims && ++o[c] > 1; c++)
             o[c] = -1;
+    }
+    if (second) {
+        min_distance = f2_distance;
+        for (int c = 0; c < dims; c++) {
+            target_offset[c] = f2_offset[c];
+            target_point[c] = f2_point[c];
+        }
     }
 
     *distance = min_distance;
@@ -1018,13 +1039,13 @@ static inline void lane_voronoi_f1(const voronoi_params *p, const lane_f *coord,
 }
 
 /* Points first .. first + LANES - 1 of the batch side by side, if they all need
- * F1 with a single octave; false (nothing written) otherwise. What voronoi_batch computes
+ * F1 or F2 with a single octave; false (nothing written) otherwise. What voronoi_batch computes
  * for each of them. */
 static inline bool voronoi_lanes(const sg_kernel_args *a, const voronoi_params *base, int first)
 {
     enum { L = LANES };
     const int n = a->n, dims = base->dims;
-    if (base->feature != FEATURE_F1)
+    if (base->feature != FEATURE_F1 && base->feature != FEATURE_F2)
         return false;
     lane_f coord[4] = {lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f), lane_splat(0.0f)};
     lane_f randomness, scale, max_distance;
@@ -1045,8 +1066,8 @@ static inline bool voronoi_lanes(const sg_kernel_args *a, const voronoi_params *
     }
 
     lane_f distance, color[3], position[4];
-    lane_voronoi_f1(base, coord, randomness, exponent, &distance,
-                    a->out[OUT_COLOR] ? color : NULL, position);
+    lane_voronoi_nearest(base, coord, randomness, exponent, base->feature == FEATURE_F2,
+                         &distance, a->out[OUT_COLOR] ? color : NULL, position);
     /* fractal_voronoi's single octave: max_amplitude 1. */
     if (base->normalize && !base->blender3)
         distance /= 1.0f * max_distance;

@@ -3,7 +3,7 @@
  * one-point batch, as the pointwise evaluator runs it): the same bits for every output
  * of every point, in every dimension count, metric, feature, Normalize setting and
  * Blender mode. The batch path evaluates groups of points side by side in SIMD lanes
- * where it can (F1 with one octave); this is what proves it changes nothing.
+ * where it can (F1 or F2 with one octave); this is what proves it changes nothing.
  *
  * The points are pseudo-random but fixed, and include what takes rare branches: -0 and
  * integer coordinates, large ones, Scale 0, Randomness outside [0, 1], Detail 0 on most
