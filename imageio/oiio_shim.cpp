@@ -1,5 +1,8 @@
 /*
- * The only C++ in imageio: a thin extern "C" layer over OpenImageIO 2.4.
+ * The only C++ in imageio: a thin C layer over OpenImageIO 2.4, built as its own module
+ * (libimsynth_oiio.so) that oiio_module.c loads at the first call, so that a command that
+ * reads no image never loads OpenImageIO's ~250 libraries. Its one exported symbol is
+ * imsynth_oiio_api (oiio_shim.h); everything else has hidden visibility.
  *
  * OIIO reports most failures through return values and geterror(), but the format
  * libraries under it (OpenEXR, libtiff, ...) can throw, and so can std::string and
@@ -135,13 +138,13 @@ static oiio_reader *open_reader(const char *path, const char *format, const void
     return nullptr;
 }
 
-extern "C" oiio_reader *oiio_reader_open(const char *path, oiio_image_info *info, char *err,
+static oiio_reader *shim_reader_open(const char *path, oiio_image_info *info, char *err,
                                          size_t errlen)
 {
     return open_reader(path, nullptr, nullptr, 0, info, err, errlen);
 }
 
-extern "C" oiio_reader *oiio_reader_open_memory(const char *path, const char *format,
+static oiio_reader *shim_reader_open_memory(const char *path, const char *format,
                                                 const void *data, size_t size,
                                                 oiio_image_info *info, char *err,
                                                 size_t errlen)
@@ -149,7 +152,7 @@ extern "C" oiio_reader *oiio_reader_open_memory(const char *path, const char *fo
     return open_reader(path, format, data, size, info, err, errlen);
 }
 
-extern "C" int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pixels,
+static int shim_reader_read(oiio_reader *reader, int nchannels, int as_uint8, void *pixels,
                                 char *err, size_t errlen)
 {
     try {
@@ -174,7 +177,7 @@ extern "C" int oiio_reader_read(oiio_reader *reader, int nchannels, int as_uint8
     return -1;
 }
 
-extern "C" void oiio_reader_close(oiio_reader *reader)
+static void shim_reader_close(oiio_reader *reader)
 {
     if (!reader)
         return;
@@ -188,7 +191,7 @@ extern "C" void oiio_reader_close(oiio_reader *reader)
     delete reader;
 }
 
-extern "C" int oiio_write_png(const char *path, int width, int height, int channels,
+static int shim_write_png(const char *path, int width, int height, int channels,
                               int bits, int linear, const void *pixels, char *err,
                               size_t errlen)
 {
@@ -236,4 +239,11 @@ extern "C" int oiio_write_png(const char *path, int width, int height, int chann
         set_error(err, errlen, "unknown exception in OpenImageIO");
     }
     return -1;
+}
+
+extern "C" __attribute__((visibility("default"))) const oiio_api *imsynth_oiio_api(void)
+{
+    static const oiio_api api = {OIIO_API_VERSION,     shim_reader_open, shim_reader_open_memory,
+                                 shim_reader_read,     shim_reader_close, shim_write_png};
+    return &api;
 }

@@ -4,6 +4,12 @@
  * exception, so these functions only ever fail by returning an error code and a message.
  *
  * Messages written to err do not name the file; the caller prefixes the path.
+ *
+ * The functions below are oiio_module.c's: each loads the module (oiio_shim.cpp as
+ * libimsynth_oiio.so) on first use and calls its entry in the module's oiio_api table. A
+ * module that cannot be loaded makes them fail with a message saying where it was looked
+ * for. OpenImageIO with its dependencies is ~250 shared libraries and 0.37 s of start-up
+ * (BENCHMARKS.md, the suite's own time): most commands read no image and never pay it.
  */
 #ifndef IMSYNTH_IMAGEIO_OIIO_SHIM_H
 #define IMSYNTH_IMAGEIO_OIIO_SHIM_H
@@ -54,6 +60,24 @@ void oiio_reader_close(oiio_reader *reader);
  * temporary file: the caller provides one). Returns 0, or -1 with a message. */
 int oiio_write_png(const char *path, int width, int height, int channels, int bits, int linear,
                    const void *pixels, char *err, size_t errlen);
+
+/* The module's table (its one exported symbol: imsynth_oiio_api). The version is checked
+ * at load: a module from another build of imsynth is refused rather than called. */
+#define OIIO_API_VERSION 1
+typedef struct oiio_api {
+    int version;
+    oiio_reader *(*reader_open)(const char *path, oiio_image_info *info, char *err,
+                                size_t errlen);
+    oiio_reader *(*reader_open_memory)(const char *path, const char *format, const void *data,
+                                       size_t size, oiio_image_info *info, char *err,
+                                       size_t errlen);
+    int (*reader_read)(oiio_reader *reader, int nchannels, int as_uint8, void *pixels,
+                       char *err, size_t errlen);
+    void (*reader_close)(oiio_reader *reader);
+    int (*write_png)(const char *path, int width, int height, int channels, int bits,
+                     int linear, const void *pixels, char *err, size_t errlen);
+} oiio_api;
+const oiio_api *imsynth_oiio_api(void);
 
 #ifdef __cplusplus
 }

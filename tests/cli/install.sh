@@ -8,7 +8,7 @@ root=$2
 build=$(cd "$(dirname "$imsynth")/.." && pwd)
 cmake --install "$build" --prefix "$tmp/prefix" > "$tmp/install.log" 2>&1; check "cmake --install" 0 $?
 p="$tmp/prefix"
-for f in bin/imsynth share/imsynth/assets/supershader.json share/imsynth/assets/scene.json \
+for f in bin/imsynth lib/imsynth/libimsynth_oiio.so share/imsynth/assets/supershader.json share/imsynth/assets/scene.json \
          share/imsynth/assets/scene-flash.json share/imsynth/blender/import_material.py; do
     if [ -e "$p/$f" ]; then echo "ok: installs $f"; else echo "FAIL: no $f"; failures=$((failures + 1)); fi
 done
@@ -22,6 +22,17 @@ expect_stdout "--data overrides" "data: $root/assets/supershader.json"
 check "a wrong IMSYNTH_DATA falls back to the installation" 0 $?
 (cd "$tmp" && "$p/bin/imsynth" datagen --out ds.sqlite --count 1 --preset draft --descriptor none --quiet)
 check "installed datagen from another directory" 0 $?
+# OpenImageIO is a module loaded at the first image read (imageio/oiio_module.c): a command
+# that reads no image does not load it, one that does loads the installed module.
+(cd / && LD_DEBUG=files "$p/bin/imsynth" sample --seed 3) > /dev/null 2> "$tmp/ld"
+check "installed sample" 0 $?
+grep -q 'libOpenImageIO' "$tmp/ld" && { echo "FAIL: sample loaded OpenImageIO"; failures=$((failures + 1)); } ||
+    echo "ok: a command without images does not load OpenImageIO"
+(cd / && LD_DEBUG=files "$p/bin/imsynth" compare "$root/assets/examples/handmade-marble.png" \
+    "$root/assets/examples/handmade-marble.png") > /dev/null 2> "$tmp/ld"
+check "installed compare of two PNGs" 0 $?
+grep -q "file=$p/bin/../lib/imsynth/libimsynth_oiio.so" "$tmp/ld"
+check "the installed binary loads the installed module" 0 $?
 (cd / && "$p/bin/imsynth" predict "$root/assets/examples/handmade-wood_planks.png" -o "$tmp/pred" \
     --refine 1 --top-k 1 --nearest 1 --search-preset draft --final-preset draft --quiet)
 check "installed predict from / with the bundled model" 0 $?
