@@ -128,6 +128,12 @@ int cmd_evaluate(int argc, char **argv)
                 cli_error(sub, "--preset: expected one of %s, got \"%s\"", datagen_preset_names(), v);
                 return EXIT_USAGE;
             }
+        } else if (!strcmp(a, "--search-preset")) {
+            if (!(o.search_preset = datagen_preset_find(v))) {
+                cli_error(sub, "--search-preset: expected one of %s, got \"%s\"",
+                          datagen_preset_names(), v);
+                return EXIT_USAGE;
+            }
         } else if (!strcmp(a, "--top-k")) {
             if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;

@@ -555,7 +555,8 @@ typedef struct evaluate_options {
     const char *out_dir;      /* the report folder (must not exist; written whole or not) */
     const char *graph_path;   /* super-shader; NULL: found with pipeline_find_data */
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
-    const datagen_preset *preset; /* how candidates are rendered */
+    const datagen_preset *preset; /* how candidates and results are rendered and measured */
+    const datagen_preset *search_preset; /* the refinement's renders; NULL: preset */
     int top_k;                /* candidates of the -topk methods (>= 1) */
     long long limit;          /* at most this many test rows (<= 0: all) */
     int threads;              /* workers (0 = online CPUs); never changes a byte */
