@@ -44,7 +44,7 @@ static const char *const help =
     "answer can be expected to come.\n"
     "Parameter space (synthetic sets): selector accuracy against the majority class; R^2 of\n"
     "each value parameter where active (about the training mean: the mean method scores 0);\n"
-    "spread = std of predictions / std of targets.\n"
+    "spread = std of predictions / std of targets; correlation (Pearson's) of the two.\n"
     "\n"
     "REPORT_DIR (must not exist; written whole or not at all): report.json (every input,\n"
     "method and distance, raw and normalised; floors; summaries; targets; configs),\n"

@@ -811,7 +811,7 @@ static int bin_of(float v, int choices)
 typedef struct param_figures {
     size_t rows;
     double accuracy, majority; /* selectors: share right, share of the majority class */
-    double r2, spread;         /* values */
+    double r2, spread, corr;   /* values */
 } param_figures;
 
 /* majority_bin: per selector, the catalogue's most frequent class. */
@@ -819,7 +819,7 @@ static param_figures param_summary(const records *rs, input_set set, int m, int 
                                    int majority_bin, double train_mean, size_t np)
 {
     param_figures f = {0};
-    f.accuracy = f.majority = f.r2 = f.spread = NAN;
+    f.accuracy = f.majority = f.r2 = f.spread = f.corr = NAN;
     double *pred = malloc((rs->n ? rs->n : 1) * sizeof *pred);
     double *truth = malloc((rs->n ? rs->n : 1) * sizeof *truth);
     if (!pred || !truth) {
@@ -847,6 +847,7 @@ static param_figures param_summary(const records *rs, input_set set, int m, int 
     } else if (f.rows) {
         f.r2 = evaluate_r2(pred, truth, f.rows, train_mean);
         f.spread = evaluate_spread(pred, truth, f.rows);
+        f.corr = evaluate_correlation(pred, truth, f.rows);
     }
     free(pred);
     free(truth);
@@ -929,15 +930,17 @@ static int make_targets(const report_ctx *c, target *t, int max)
     }
     /* Median R^2 and spread over the value parameters. */
     double *r2 = malloc(np * sizeof *r2), *sp = malloc(np * sizeof *sp);
+    double *co = malloc(np * sizeof *co);
     size_t nv = 0;
-    for (size_t k = 0; r2 && sp && k < np; k++) {
+    for (size_t k = 0; r2 && sp && co && k < np; k++) {
         if (role_of(c->sh->names[k]) != ROLE_VALUE)
             continue;
         param_figures f = param_summary(c->rs, SET_SYNTHETIC, pred, (int)k, 0, 0, c->sh->mean[k], np);
         r2[nv] = f.r2;
+        co[nv] = f.corr;
         sp[nv++] = f.spread;
     }
-    if (n + 3 <= max) {
+    if (n + 4 <= max) {
         snprintf(t[n].what, sizeof t[n].what, "predictor: median R^2 over active value parameters");
         t[n].figure = r2 ? evaluate_quantile(r2, nv, 0.5) : NAN;
         t[n].threshold = 0.3;
@@ -949,6 +952,17 @@ static int make_targets(const report_ctx *c, target *t, int max)
         t[n].threshold = 0.7;
         t[n].known = isfinite(t[n].figure);
         t[n].met = t[n].known && t[n].figure >= 0.7;
+        n++;
+        /* Not a target of its own: what the two above need together (evaluate_correlation).
+         * It tells a predictor that shrinks to the mean because it knows little (spread
+         * near its correlation) from one that could be rescaled. */
+        snprintf(t[n].what, sizeof t[n].what,
+                 "predictor: median correlation with the target (R^2 0.3 with spread 0.7 "
+                 "needs 0.564)");
+        t[n].figure = co ? evaluate_quantile(co, nv, 0.5) : NAN;
+        t[n].threshold = 0.564;
+        t[n].known = isfinite(t[n].figure);
+        t[n].met = t[n].known && t[n].figure >= 0.564;
         n++;
         dist_summary ds = summarise(c->rs, SET_SYNTHETIC, topk, c->sh->train);
         snprintf(t[n].what, sizeof t[n].what,
@@ -962,6 +976,7 @@ static int make_targets(const report_ctx *c, target *t, int max)
     }
     free(r2);
     free(sp);
+    free(co);
     return n;
 }
 
@@ -1137,6 +1152,7 @@ static cJSON *report_json(const report_ctx *c)
                 } else {
                     cJSON_AddItemToObject(e, "r2", number_or_null(f.r2));
                     cJSON_AddItemToObject(e, "spread", number_or_null(f.spread));
+                    cJSON_AddItemToObject(e, "correlation", number_or_null(f.corr));
                     cJSON_AddItemToArray(val, e);
                 }
             }
@@ -1221,7 +1237,7 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
             }
     }
     sb_printf(csv, "\nset,method,parameter,role,rows,accuracy,majority_train,majority_test,r2,"
-                   "spread\n");
+                   "spread,correlation\n");
     for (int s = SET_SYNTHETIC; s <= SET_AUGMENTED; s++) {
         if (!c->set_count[s])
             continue;
@@ -1254,10 +1270,10 @@ static void summary_tables(const report_ctx *c, strbuf *csv, strbuf *md)
                 param_figures pf = param_summary(c->rs, (input_set)s, m, (int)k, choices,
                                                  c->majority_bin[k], sh->mean[k], np);
                 rows = pf.rows;
-                sb_printf(csv, "%s,%s,%s,%s,%zu,%.6g,%.6g,%.6g,%.6g,%.6g\n", set_names[s],
+                sb_printf(csv, "%s,%s,%s,%s,%zu,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", set_names[s],
                           methods[m].name, sh->names[k], choices ? "selector" : "value", pf.rows,
                           pf.accuracy, choices ? c->majority_share[k] : NAN, pf.majority, pf.r2,
-                          pf.spread);
+                          pf.spread, pf.corr);
                 if (choices) {
                     sb_printf(&cells, " %s |", fmt_num(a, pf.accuracy, "%.2f"));
                     majority_test = pf.majority;

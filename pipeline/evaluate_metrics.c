@@ -1,5 +1,5 @@
 /* The evaluation's arithmetic (pipeline.h, "evaluation"): distances between descriptors and
- * images, the floor's normalisation, quantiles, R^2 and spread. Kept apart from evaluate.c
+ * images, the floor's normalisation, quantiles, R^2, spread and correlation. Kept apart from evaluate.c
  * (which drives the predictor and the renderer) so that each piece is tested on known
  * values, and so that a benchmark can link it alone. */
 #include <math.h>
@@ -129,6 +129,26 @@ static double variance(const double *v, size_t n)
     for (size_t i = 0; i < n; i++)
         ss += (v[i] - mean) * (v[i] - mean);
     return ss / (double)n;
+}
+
+double evaluate_correlation(const double *pred, const double *truth, size_t n)
+{
+    if (n == 0)
+        return NAN;
+    double mp = 0.0, mt = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        mp += pred[i];
+        mt += truth[i];
+    }
+    mp /= (double)n;
+    mt /= (double)n;
+    double spt = 0.0, spp = 0.0, stt = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        spt += (pred[i] - mp) * (truth[i] - mt);
+        spp += (pred[i] - mp) * (pred[i] - mp);
+        stt += (truth[i] - mt) * (truth[i] - mt);
+    }
+    return spp > 0.0 && stt > 0.0 ? spt / sqrt(spp * stt) : NAN;
 }
 
 double evaluate_spread(const double *pred, const double *truth, size_t n)

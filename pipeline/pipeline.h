@@ -547,6 +547,11 @@ double evaluate_r2(const double *pred, const double *truth, size_t n, double ref
 /* std(pred) / std(truth) (population standard deviations): 0 for a constant predictor, 1
  * when the predictions vary as much as the targets. NAN when the truths do not vary. */
 double evaluate_spread(const double *pred, const double *truth, size_t n);
+/* Pearson's correlation of predictions and truths. With the predictions' mean at the truths'
+ * and spread s, R^2 = 2 s r - s^2: at most r^2 (at s = r, what a least-squares predictor
+ * converges to), so R^2 >= 0.3 and s >= 0.7 together need r >= 0.564. NAN when either
+ * does not vary. */
+double evaluate_correlation(const double *pred, const double *truth, size_t n);
 
 typedef struct evaluate_options {
     const char *model_dir;    /* written by predictor_fit */

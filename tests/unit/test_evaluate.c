@@ -186,6 +186,26 @@ static void test_r2_and_spread(void **state)
     assert_true(isnan(evaluate_r2(truth, constant, 6, mean))); /* SST = 0 */
     assert_true(isnan(evaluate_spread(truth, constant, 6)));
     assert_true(isnan(evaluate_spread(truth, truth, 0)));
+    /* Correlation: 1 for any increasing affine map, -1 reversed, NAN for a constant. */
+    double flipped[6], noisy[6];
+    const double wiggle[6] = {0.3, -0.2, 0.1, -0.3, 0.2, -0.1};
+    for (int i = 0; i < 6; i++) {
+        flipped[i] = 1.0 - truth[i];
+        noisy[i] = half[i] + 0.2 * wiggle[i];
+    }
+    assert_true(fabs(evaluate_correlation(half, truth, 6) - 1.0) < 1e-12);
+    assert_true(fabs(evaluate_correlation(flipped, truth, 6) + 1.0) < 1e-12);
+    assert_true(isnan(evaluate_correlation(constant, truth, 6)));
+    assert_true(isnan(evaluate_correlation(truth, truth, 0)));
+    /* The identity the report's bound rests on: with equal means, R^2 = 2 s r - s^2. */
+    double m_noisy = 0.0;
+    for (int i = 0; i < 6; i++)
+        m_noisy += noisy[i] / 6.0;
+    for (int i = 0; i < 6; i++)
+        noisy[i] += mean - m_noisy;
+    double s = evaluate_spread(noisy, truth, 6), r = evaluate_correlation(noisy, truth, 6);
+    assert_true(r > 0.0 && r < 1.0);
+    assert_true(fabs(evaluate_r2(noisy, truth, 6, mean) - (2.0 * s * r - s * s)) < 1e-12);
 }
 
 /* The shared sheet font: every letter, digit and sign in the label alphabet draws some
