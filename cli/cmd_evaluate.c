@@ -95,8 +95,11 @@ int cmd_evaluate(int argc, char **argv)
     o.blender = SG_BLENDER_4;
     o.sheet_inputs = 16;
     o.preset = datagen_preset_find("datagen");
-    refine_options_default(&o.refine);
-    o.refine.budget = 64; /* predict's */
+    /* The -refine rows run predict's search: its method, budget and preset. */
+    predict_options po;
+    predict_options_default(&po);
+    o.refine = po.refine;
+    o.refine_preset = po.refine_preset;
     o.colour_weight = PIPELINE_COLOUR_WEIGHT;
     int open_line = 0;
     o.progress = progress;
@@ -128,9 +131,9 @@ int cmd_evaluate(int argc, char **argv)
                 cli_error(sub, "--preset: expected one of %s, got \"%s\"", datagen_preset_names(), v);
                 return EXIT_USAGE;
             }
-        } else if (!strcmp(a, "--search-preset")) {
-            if (!(o.search_preset = datagen_preset_find(v))) {
-                cli_error(sub, "--search-preset: expected one of %s, got \"%s\"",
+        } else if (!strcmp(a, "--refine-preset")) {
+            if (!(o.refine_preset = datagen_preset_find(v))) {
+                cli_error(sub, "--refine-preset: expected one of %s, got \"%s\"",
                           datagen_preset_names(), v);
                 return EXIT_USAGE;
             }

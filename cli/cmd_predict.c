@@ -19,7 +19,7 @@ static const char *const help =
     "  2. candidates: the predictor's --top-k hypotheses and the --nearest catalogue samples\n"
     "     (those with the same sub-shader merged), each rendered in our scene and scored;\n"
     "  3. the best is refined: a search over the parameters its sub-shader depends on,\n"
-    "     --refine N renders at the search preset (N = 1: no refinement);\n"
+    "     --refine N renders at the refine preset (N = 1: no refinement);\n"
     "  4. the result is rendered at the final preset and its sub-shader extracted.\n"
     "The loss is G + w C: G the Gram distance of the model's descriptor, C the mean\n"
     "difference of 32x32 box averages of the colours, w = --colour-weight.\n"
@@ -42,9 +42,11 @@ static const char *const help =
     "                         flash at the camera, or auto (default): both, the better kept\n"
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
-    "  --refine N             refinement renders, the start's included (default 64)\n"
+    "  --refine N             refinement renders, the start's included (default 224)\n"
     "  --method M             es (default), es-split, es-mirror, coordinate, random (docs/predict.md)\n"
-    "  --search-preset NAME   draft, datagen (default), converged\n"
+    "  --search-preset NAME   the candidates': draft, datagen (default), converged\n"
+    "  --refine-preset NAME   the refinement's (default draft: 224 renders take about the\n"
+    "                         time of 64 at datagen; docs/predict.md)\n"
     "  --final-preset NAME    the preview's (default converged)\n"
     "  --colour-weight W      weight of the colour term (default 4)\n"
     "  --threads T            render threads (default: online CPUs); never changes a byte\n"
@@ -151,6 +153,9 @@ int cmd_predict(int argc, char **argv)
             o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--search-preset")) {
             if (!(o.search_preset = preset_arg(sub, a, val)))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--refine-preset")) {
+            if (!(o.refine_preset = preset_arg(sub, a, val)))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--final-preset")) {
             if (!(o.final_preset = preset_arg(sub, a, val)))

@@ -217,10 +217,10 @@ static uint64_t input_seed(uint64_t seed, const input *in)
 
 /* ---------------------------------------------------------------- rendering -------- */
 
-/* The refinement's preset: --search-preset, else the evaluation's. */
-static const datagen_preset *search_preset(const evaluate_options *o)
+/* The refinement's preset: --refine-preset, else the evaluation's. */
+static const datagen_preset *refine_preset(const evaluate_options *o)
 {
-    return o->search_preset ? o->search_preset : o->preset;
+    return o->refine_preset ? o->refine_preset : o->preset;
 }
 
 static int render_params(input_work *iw, const datagen_preset *preset, const float *params,
@@ -365,7 +365,7 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
 /* ---------------------------------------------------------------- refinement ------ */
 
 /* The refinement's loss, predict's (pipeline_refine_loss): the training descriptor's Gram
- * distance and the colour term of a render at the search preset and the input's seed.
+ * distance and the colour term of a render at the refine preset and the input's seed.
  * Proposals are not kept as candidates (a search renders tens of them); the result is
  * rendered again at the evaluation's preset to be measured like every other method. */
 static int refine_loss_cb(void *ctx, const float *params, double *loss, char *err,
@@ -376,7 +376,7 @@ static int refine_loss_cb(void *ctx, const float *params, double *loss, char *er
     int k = w->sh->train;
     image img = {0};
     float *desc = NULL;
-    int rc = render_params(iw, search_preset(w->sh->o), params, &img, err, errlen);
+    int rc = render_params(iw, refine_preset(w->sh->o), params, &img, err, errlen);
     if (rc == 0)
         rc = describe(w, k, &img, &desc, err, errlen);
     double c = 0.0;
@@ -1054,7 +1054,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "test", o->test_path ? o->test_path : "");
     cJSON_AddStringToObject(cmd, "handmade", o->handmade_dir ? o->handmade_dir : "");
     cJSON_AddStringToObject(cmd, "preset", o->preset->name);
-    cJSON_AddStringToObject(cmd, "search_preset", search_preset(o)->name);
+    cJSON_AddStringToObject(cmd, "refine_preset", refine_preset(o)->name);
     cJSON_AddNumberToObject(cmd, "top_k", o->top_k);
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
@@ -1463,8 +1463,8 @@ static int write_report(const report_ctx *c, char *err, size_t errlen)
     if (c->o->handmade_dir)
         sb_printf(&md, "hand-made %s (%d materials); ", c->o->handmade_dir,
                   c->handmade_materials);
-    sb_printf(&md, "preset %s (search %s), top-k %d, seed %llu.\n\n", c->o->preset->name,
-              search_preset(c->o)->name, c->o->top_k, (unsigned long long)c->o->seed);
+    sb_printf(&md, "preset %s (refinement %s), top-k %d, seed %llu.\n\n", c->o->preset->name,
+              refine_preset(c->o)->name, c->o->top_k, (unsigned long long)c->o->seed);
     summary_tables(c, &csv, &md);
     if (csv.failed || md.failed)
         rc = rc ? rc : pipeline_error(err, errlen, "out of memory for the summary");

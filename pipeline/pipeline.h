@@ -561,7 +561,7 @@ typedef struct evaluate_options {
     const char *graph_path;   /* super-shader; NULL: found with pipeline_find_data */
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
     const datagen_preset *preset; /* how candidates and results are rendered and measured */
-    const datagen_preset *search_preset; /* the refinement's renders; NULL: preset */
+    const datagen_preset *refine_preset; /* the refinement's renders; NULL: preset */
     int top_k;                /* candidates of the -topk methods (>= 1) */
     long long limit;          /* at most this many test rows (<= 0: all) */
     int threads;              /* workers (0 = online CPUs); never changes a byte */
@@ -604,8 +604,9 @@ typedef struct predict_options {
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
     int top_k;                /* predictor hypotheses (8) */
     int nearest;              /* catalogue candidates (8; 0: none) */
-    refine_options refine;    /* budget 1: the best candidate as it is (default 64) */
-    const datagen_preset *search_preset; /* candidates and refinement ("datagen") */
+    refine_options refine;    /* budget 1: the best candidate as it is (default 224) */
+    const datagen_preset *search_preset; /* the candidates ("datagen") */
+    const datagen_preset *refine_preset; /* the refinement's renders ("draft") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */
     double colour_weight;     /* pipeline_refine_loss's (PIPELINE_COLOUR_WEIGHT) */

@@ -16,9 +16,9 @@ expect_stdout "help documents the Gram distance" "||a_l - b_l||"
 "$imsynth" evaluate --model m --test t -o r --top-k 0 2> "$tmp/err"; check "bad --top-k" 2 $?
 "$imsynth" evaluate --model m --test t -o r --preset fast 2> "$tmp/err"; check "bad --preset" 2 $?
 expect_stderr "preset message lists the presets" "draft, datagen, converged"
-"$imsynth" evaluate --model m --test t -o r --search-preset fast 2> "$tmp/err"
-check "bad --search-preset" 2 $?
-expect_stderr "search preset message lists the presets" "draft, datagen, converged"
+"$imsynth" evaluate --model m --test t -o r --refine-preset fast 2> "$tmp/err"
+check "bad --refine-preset" 2 $?
+expect_stderr "refine preset message lists the presets" "draft, datagen, converged"
 
 # Quick runs (the sanitizer's) take 2 inputs: the plain view and a hand-made material
 # without flash, and no 1-thread run; the full run takes 4 (an augmented view, a flash one).
@@ -100,16 +100,16 @@ if [ -z "$quick" ]; then
         cmp -s "$tmp/r1/$f" "$tmp/r2/$f" || { echo "FAIL: $f differs between 1 and 2 threads"; failures=$((failures + 1)); }
     done
     echo "ok: 1 and 2 threads compared"
-    # --search-preset: the refinement's renders only. Naming the evaluation's own preset
+    # --refine-preset: the refinement's renders only. Naming the evaluation's own preset
     # changes nothing; another changes at most the -refine rows, which still spend --refine.
-    "$imsynth" evaluate $ev --search-preset draft -o "$tmp/rs" > /dev/null 2>&1
-    check "evaluate, --search-preset as --preset" 0 $?
+    "$imsynth" evaluate $ev --refine-preset draft -o "$tmp/rs" > /dev/null 2>&1
+    check "evaluate, --refine-preset as --preset" 0 $?
     cmp -s "$tmp/rs/inputs.csv" "$tmp/r2/inputs.csv"; check "the same rows" 0 $?
-    grep -q '"search_preset":[[:space:]]*"draft"' "$tmp/rs/report.json"; check "report.json names the search preset" 0 $?
-    "$imsynth" evaluate $ev --search-preset datagen -o "$tmp/rd" > /dev/null 2>&1
-    check "evaluate, --search-preset datagen" 0 $?
+    grep -q '"refine_preset":[[:space:]]*"draft"' "$tmp/rs/report.json"; check "report.json names the refine preset" 0 $?
+    "$imsynth" evaluate $ev --refine-preset datagen -o "$tmp/rd" > /dev/null 2>&1
+    check "evaluate, --refine-preset datagen" 0 $?
     grep -v -e '-refine,' "$tmp/rd/inputs.csv" > "$tmp/rd.rest"; grep -v -e '-refine,' "$csv" > "$tmp/r2.rest"
-    cmp -s "$tmp/rd.rest" "$tmp/r2.rest"; check "only the -refine rows depend on the search preset" 0 $?
+    cmp -s "$tmp/rd.rest" "$tmp/r2.rest"; check "only the -refine rows depend on the refine preset" 0 $?
     awk -F, '$3 ~ /refine/ && $4 == "mobilenetv2" && $8 != 4 { print; bad = 1 } END { exit bad }' \
         "$tmp/rd/inputs.csv"
     check "a datagen search spends --refine renders" 0 $?

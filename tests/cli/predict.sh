@@ -66,6 +66,23 @@ assert r["renders_by_stage"]["candidates"] == len(r["candidates"])
 PY
 check "auto: both scenes scored, the least loss wins" 0 $?
 
+# --refine-preset apart from --search-preset: the start is rendered again at it (the
+# cache key holds the preset), so the curve starts from its loss there, not the candidate's
+"$imsynth" predict "$input" -o "$tmp/rp" --model "$tmp/model" --top-k 2 --nearest 2 --refine 2 \
+    --search-preset datagen --refine-preset draft --final-preset draft --light scene --quiet
+check "predict --refine-preset apart" 0 $?
+py - "$tmp/rp/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["loss"]["search_preset"] == "datagen" and r["loss"]["refine_preset"] == "draft", r["loss"]
+chosen = [c for c in r["candidates"] if c["chosen"]][0]
+assert chosen["scene"]["loss"] != r["refinement"]["start_loss"], (chosen, r["refinement"])
+assert r["renders_by_stage"]["refine"] >= 1, r["renders_by_stage"]
+PY
+check "the refinement's start scored at the refine preset" 0 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --refine-preset fast 2> "$tmp/err"
+check "bad --refine-preset" 2 $?
+
 # a rerun into an earlier output replaces it; a folder of other files is refused and kept.
 # The rerun also removes what a killed run left (OUT.tmp.PID of a process that is gone),
 # and keeps a live run's
