@@ -22,8 +22,9 @@ shader frame F:
     draft preset (1 shading point): the render itself, from --stats, and the process's wall
     time (start, load, bind, extract, compile).
   - imsynth predict on frame F's render (imsynth render, default quality, made before the
-    measured part): everything default (search preset datagen, 64 refinement evaluations,
-    final preset converged), then with --search-preset draft. Evaluations/s =
+    measured part): everything default (candidates at datagen, 224 refinement evaluations at
+    the draft refine preset, final preset converged), then the refinement at datagen with 64
+    (--refine-preset datagen --refine 64, the default before session 18). Evaluations/s =
     refinement.evaluations / seconds.refine; cached evaluations (a move that leaves the
     sub-shader unchanged) count, report["renders"] says how many renders were made.
 The measured part runs with the background datagen (pgrep -f "datagen --out
@@ -198,9 +199,9 @@ def report(R):
     for tag, rep in preds.items():
         s, rf = rep["seconds"], rep["refinement"]
         per = s["refine"] / rf["evaluations"]
-        print("| imsynth predict refinement, %s search preset | ours, %s threads | %s | %.3f | %.2f | %.1fx |"
-              % (rep["loss"]["search_preset"], threads, "1 x 4" if tag == "draft" else "4 x 4", per,
-                 1 / per, b4 / per))
+        rp = rep["loss"]["refine_preset"]
+        print("| imsynth predict refinement, %s refine preset | ours, %s threads | %s | %.3f | %.2f | %.1fx |"
+              % (rp, threads, "1 x 4" if rp == "draft" else "4 x 4", per, 1 / per, b4 / per))
     print()
     print("| predict | evaluations (refine) | renders (refine, about) | non-render s an evaluation | render s a refine evaluation | refine s |")
     print("|---|---:|---:|---:|---:|---:|")
@@ -311,9 +312,10 @@ def main():
                 ims[preset]["render"].append(float(m.group(1)))
                 ims[preset]["material"].append(float(m.group(2)))
 
-        # imsynth predict: the default budget, then the draft search preset.
+        # imsynth predict: the defaults (refinement at draft), then the refinement at datagen.
         preds = {}
-        for tag, extra in (("default", []), ("draft", ["--search-preset", "draft"])):
+        for tag, extra in (("default", []),
+                           ("datagen", ["--refine-preset", "datagen", "--refine", "64"])):
             out = os.path.join(work, "predict-" + tag)
             t0 = time.time()
             run([imsynth, "predict", target, "-o", out, "--model", a.model, "--quiet"] + extra)
