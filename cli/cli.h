@@ -70,6 +70,9 @@ int cli_parse_ll(const char *sub, const char *opt, const char *s, long long lo, 
                  long long *out);
 int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,
                      double *out);
+/* A render preset by name (datagen_preset_find); NULL after printing "imsynth <sub>: <opt>:
+ * expected one of <names>, got ..." (a usage error). */
+const struct datagen_preset *cli_parse_preset(const char *sub, const char *opt, const char *s);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);
 

@@ -127,16 +127,11 @@ int cmd_evaluate(int argc, char **argv)
         else if (!strcmp(a, "--flash-scene"))
             o.flash_scene_path = v;
         else if (!strcmp(a, "--preset")) {
-            if (!(o.preset = datagen_preset_find(v))) {
-                cli_error(sub, "--preset: expected one of %s, got \"%s\"", datagen_preset_names(), v);
+            if (!(o.preset = cli_parse_preset(sub, a, v)))
                 return EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--refine-preset")) {
-            if (!(o.refine_preset = datagen_preset_find(v))) {
-                cli_error(sub, "--refine-preset: expected one of %s, got \"%s\"",
-                          datagen_preset_names(), v);
+            if (!(o.refine_preset = cli_parse_preset(sub, a, v)))
                 return EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--top-k")) {
             if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;

@@ -73,14 +73,6 @@ static void progress(void *ctx, const char *stage, int done, int todo, double be
     fflush(stderr);
 }
 
-static const datagen_preset *preset_arg(const char *sub, const char *opt, const char *v)
-{
-    const datagen_preset *p = datagen_preset_find(v);
-    if (!p)
-        cli_error(sub, "%s: unknown preset \"%s\" (%s)", opt, v, datagen_preset_names());
-    return p;
-}
-
 int cmd_predict(int argc, char **argv)
 {
     const char *sub = "predict";
@@ -152,13 +144,13 @@ int cmd_predict(int argc, char **argv)
             }
             o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--search-preset")) {
-            if (!(o.search_preset = preset_arg(sub, a, val)))
+            if (!(o.search_preset = cli_parse_preset(sub, a, val)))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--refine-preset")) {
-            if (!(o.refine_preset = preset_arg(sub, a, val)))
+            if (!(o.refine_preset = cli_parse_preset(sub, a, val)))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--final-preset")) {
-            if (!(o.final_preset = preset_arg(sub, a, val)))
+            if (!(o.final_preset = cli_parse_preset(sub, a, val)))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--colour-weight")) {
             if (cli_parse_double(sub, a, val, 0.0, 1e6, &d))

@@ -59,6 +59,14 @@ int cli_parse_ll(const char *sub, const char *opt, const char *s, long long lo, 
     return 0;
 }
 
+const datagen_preset *cli_parse_preset(const char *sub, const char *opt, const char *s)
+{
+    const datagen_preset *p = datagen_preset_find(s);
+    if (!p)
+        cli_error(sub, "%s: expected one of %s, got \"%s\"", opt, datagen_preset_names(), s);
+    return p;
+}
+
 int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,
                      double *out)
 {
