@@ -604,10 +604,10 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     refine_space space = {.n = np, .kind = kind, .choices = choices};
     sc.scene = best_scene;
     /* At another preset the start is rendered again (the cache key holds the preset), and
-     * its loss, not the candidate's, is the curve's first point. */
+     * its loss, not the candidate's, is the curve's first point: the search's first
+     * evaluation, which sets the best the progress line shows. */
     sc.preset = o->refine_preset;
-    refine_ctx rctx = {.sc = &sc, .budget = o->refine.budget,
-                       .best = o->refine_preset == o->search_preset ? best_loss : HUGE_VAL};
+    refine_ctx rctx = {.sc = &sc, .budget = o->refine.budget, .best = HUGE_VAL};
     if (refine_search(&space, &o->refine, refine_loss_cb, refine_active_cb, &rctx, best, &rr, err,
                       errlen))
         goto done;
