@@ -119,36 +119,29 @@ double evaluate_r2(const double *pred, const double *truth, size_t n, double ref
     return sst > 0.0 ? 1.0 - sse / sst : NAN;
 }
 
-/* Population variance, two passes (the mean first: no cancellation). */
-static double variance(const double *v, size_t n)
+/* Population covariance, two passes (the means first: no cancellation). n > 0. */
+static double covariance(const double *a, const double *b, size_t n)
 {
-    double mean = 0.0, ss = 0.0;
+    double ma = 0.0, mb = 0.0, s = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        ma += a[i];
+        mb += b[i];
+    }
+    ma /= (double)n;
+    mb /= (double)n;
     for (size_t i = 0; i < n; i++)
-        mean += v[i];
-    mean /= (double)n;
-    for (size_t i = 0; i < n; i++)
-        ss += (v[i] - mean) * (v[i] - mean);
-    return ss / (double)n;
+        s += (a[i] - ma) * (b[i] - mb);
+    return s / (double)n;
 }
+
+static double variance(const double *v, size_t n) { return covariance(v, v, n); }
 
 double evaluate_correlation(const double *pred, const double *truth, size_t n)
 {
     if (n == 0)
         return NAN;
-    double mp = 0.0, mt = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        mp += pred[i];
-        mt += truth[i];
-    }
-    mp /= (double)n;
-    mt /= (double)n;
-    double spt = 0.0, spp = 0.0, stt = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        spt += (pred[i] - mp) * (truth[i] - mt);
-        spp += (pred[i] - mp) * (pred[i] - mp);
-        stt += (truth[i] - mt) * (truth[i] - mt);
-    }
-    return spp > 0.0 && stt > 0.0 ? spt / sqrt(spp * stt) : NAN;
+    double vp = variance(pred, n), vt = variance(truth, n);
+    return vp > 0.0 && vt > 0.0 ? covariance(pred, truth, n) / sqrt(vp * vt) : NAN;
 }
 
 double evaluate_spread(const double *pred, const double *truth, size_t n)
