@@ -5,7 +5,9 @@ candidates.
     blender -b --factory-startup -noaudio -P blender/render_server.py -- \
         FULL.json --reply-fd FD [--threads N]
 
-FULL.json is a whole super-shader with its parameter group (`imsynth export GRAPH --full`).
+FULL.json is a whole super-shader with its parameter group (`imsynth export GRAPH --full`),
+or an extracted sub-shader (`imsynth export GRAPH --seed N`), which has no parameters to set:
+each request renders it as it is.
 The material is built once (import_material.build_material) on the plane of DESIGN.md's
 scene (import_material.build_scene); then each line on stdin is a request, a JSON object
 
@@ -56,8 +58,10 @@ def main(argv):
     if a.threads:
         scene.render.threads_mode = "FIXED"
         scene.render.threads = a.threads
-    group = bpy.data.node_groups[PARAMS_GROUP]
-    values = {n.name: n for n in group.nodes if n.bl_idname == "ShaderNodeValue"}
+    # An extracted sub-shader has no parameter group (its parameters are folded into it):
+    # it renders as it is, and a request may then name no parameters.
+    group = bpy.data.node_groups.get(PARAMS_GROUP)
+    values = {n.name: n for n in group.nodes if n.bl_idname == "ShaderNodeValue"} if group else {}
     build_s = time.time() - t0
     reply.write(json.dumps({"blender": bpy.app.version_string, "startup_s": t0 - T_START,
                             "build_s": build_s, "nodes": len(mat.node_tree.nodes),
@@ -69,6 +73,8 @@ def main(argv):
             break
         t0 = time.time()
         for name, v in req.get("params", {}).items():
+            if name not in values:
+                sys.exit("render_server.py: %s has no parameter %r" % (a.graph, name))
             values[name].outputs[0].default_value = float(v)
         scene.cycles.samples = int(req["samples"])
         scene.cycles.seed = int(req.get("seed", 0))

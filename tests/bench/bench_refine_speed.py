@@ -17,6 +17,9 @@ shader frame F:
     start-up and the first (compile) render are timed apart, not in the per-candidate
     figure. No descriptor or loss is computed on this side: the ratio is in Blender's
     favour by that much.
+  - Blender again, on frame F's extracted sub-shader (a small graph, as a VLMaterial program
+    is), rendered as it is N times at 4 and at 1 spp: what the loop would cost if Blender
+    rendered only what the material uses.
   - imsynth render, one process per candidate, on the same N candidates at the datagen
     preset (4 shading points a pixel, 4 light samples each, no adaptive sampling) and the
     draft preset (1 shading point): the render itself, from --stats, and the process's wall
@@ -202,6 +205,22 @@ def report(R):
         rp = rep["loss"]["refine_preset"]
         print("| imsynth predict refinement, %s refine preset | ours, %s threads | %s | %.3f | %.2f | %.1fx |"
               % (rp, threads, "1 x 4" if rp == "draft" else "4 x 4", per, 1 / per, b4 / per))
+    sub = R.get("bl_sub")  # absent from runs before the sub-shader rows existed
+    if sub:
+        print()
+        print("Blender on the extracted sub-shader (%d nodes at the top level), unchanged between "
+              "renders; first render %.2f s round trip:" % (sub["nodes"], sub["first_wall"]))
+        print()
+        print("| Blender, sub-shader | per render s (render call) | our draft refinement's evaluation, ratio | our datagen refinement's, ratio |")
+        print("|---|---:|---:|---:|")
+        per = {rep["loss"]["refine_preset"]: rep["seconds"]["refine"] / rep["refinement"]["evaluations"]
+               for rep in preds.values()}
+        for spp in ("4", "1"):
+            b = mean(sub[spp]["wall"])
+            print("| %s spp | %.2f (%.2f) | %s | %s |" % (
+                spp, b, mean(sub[spp]["render"]),
+                "%.1fx" % (b / per["draft"]) if "draft" in per else "-",
+                "%.1fx" % (b / per["datagen"]) if "datagen" in per else "-"))
     print()
     print("| predict | evaluations (refine) | renders (refine, about) | non-render s an evaluation | render s a refine evaluation | refine s |")
     print("|---|---:|---:|---:|---:|---:|")
@@ -295,6 +314,22 @@ def main():
         finally:
             srv.close()
 
+        # Blender on the extracted sub-shader (what a VLMaterial program is: a small graph),
+        # rendered as it is --candidates times at 4 and at 1 spp. Nothing changes between
+        # the renders, so Cycles may skip re-syncing the shader: in Blender's favour (on the
+        # full graph the sync and compile measured no fixed cost a candidate).
+        srv_sub = BlenderServer(a.blender, sub, a.threads)
+        try:
+            sub_first_wall, _, _ = srv_sub.render({}, 4, "sub_first")
+            bl_sub = {}
+            for spp in (4, 1):
+                rows = [srv_sub.render({}, spp, "s%d_%d" % (spp, i)) for i in range(a.candidates)]
+                bl_sub[spp] = {"wall": [r[0] for r in rows], "render": [r[1]["render_s"] for r in rows]}
+            bl_sub["first_wall"] = sub_first_wall
+            bl_sub["nodes"] = srv_sub.hello["nodes"]
+        finally:
+            srv_sub.close()
+
         # imsynth render on the same candidates, a process each.
         # The presets' settings (pipeline/datagen.c): datagen 4 shading points a pixel,
         # draft 1, each with 4 light samples, no adaptive sampling.
@@ -329,7 +364,8 @@ def main():
     # Kept whole before the report is printed, so it can be printed again (--report).
     R = {"args": vars(a), "threads": threads, "n_nodes": n_nodes, "changed": changed, "res": res,
          "pause": pause, "hello": srv.hello, "first": first, "first_wall": first_wall,
-         "bl": {str(k): v for k, v in bl.items()}, "ims": ims, "preds": preds}
+         "bl": {str(k): v for k, v in bl.items()}, "ims": ims, "preds": preds,
+         "bl_sub": {str(k): v for k, v in bl_sub.items()}}
     with open(os.path.join(work, "results.json"), "w") as f:
         json.dump(R, f, indent=1)
     report(R)
