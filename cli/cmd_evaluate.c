@@ -60,7 +60,7 @@ static const char *const help =
     "  --top-k K             candidates of the -topk methods (default 8)\n"
     "  --refine N            renders of each refinement, its start's included (default 64,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
-    "  --method M            the refinement: es (default), es-split, es-mirror, coordinate, random\n"
+    "  --method M            the refinement: coordinate (default), es, es-split, es-mirror, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --limit N             the first N rows of the test dataset only\n"
     "  --threads T           workers (default: online CPUs); never changes report.json\n"
