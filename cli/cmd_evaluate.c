@@ -60,7 +60,8 @@ static const char *const help =
     "  --top-k K             candidates of the -topk methods (default 8)\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
-    "  --method M            the refinement: coordinate (default), es, es-split, es-mirror, random\n"
+    "  --method M            the refinement: coordinate (default), coordinate-sweep,\n"
+    "                        coordinate-jump, es, es-split, es-mirror, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --refine-preset NAME  the -refine rows' search renders (default draft, predict's);\n"
     "                        their results are rendered and measured at --preset\n"
@@ -145,7 +146,8 @@ int cmd_evaluate(int argc, char **argv)
         } else if (!strcmp(a, "--method")) {
             int m = refine_method_parse(v);
             if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not es, es-split, es-mirror, coordinate or random", v);
+                cli_error(sub, "--method: \"%s\" is not coordinate, coordinate-sweep, "
+                               "coordinate-jump, es, es-split, es-mirror or random", v);
                 return EXIT_USAGE;
             }
             o.refine.method = (refine_method)m;

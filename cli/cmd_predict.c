@@ -43,7 +43,8 @@ static const char *const help =
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
     "  --refine N             refinement renders, the start's included (default 224)\n"
-    "  --method M             coordinate (default), es, es-split, es-mirror, random (docs/predict.md)\n"
+    "  --method M             coordinate (default), coordinate-sweep, coordinate-jump,\n"
+    "                         es, es-split, es-mirror, random (docs/predict.md)\n"
     "  --search-preset NAME   the candidates': draft, datagen (default), converged\n"
     "  --refine-preset NAME   the refinement's (default draft: 224 renders take about the\n"
     "                         time of 64 at datagen; docs/predict.md)\n"
@@ -139,7 +140,8 @@ int cmd_predict(int argc, char **argv)
         } else if (!strcmp(a, "--method")) {
             int m = refine_method_parse(val);
             if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not es, es-split, es-mirror, coordinate or random", val);
+                cli_error(sub, "--method: \"%s\" is not coordinate, coordinate-sweep, "
+                               "coordinate-jump, es, es-split, es-mirror or random", val);
                 return EXIT_USAGE;
             }
             o.refine.method = (refine_method)m;

@@ -451,11 +451,13 @@ typedef enum refine_method {
     REFINE_RANDOM,
     REFINE_ES_SPLIT,
     REFINE_ES_MIRROR,
+    REFINE_COORDINATE_SWEEP,
+    REFINE_COORDINATE_JUMP,
     REFINE_N_METHODS
 } refine_method;
 extern const char *const refine_method_names[REFINE_N_METHODS];
-/* The method named `name` ("coordinate", "es", "random", "es-split", "es-mirror"), or
- * -1. */
+/* The method named `name` ("coordinate", "es", "random", "es-split", "es-mirror",
+ * "coordinate-sweep", "coordinate-jump"), or -1. */
 int refine_method_parse(const char *name);
 
 typedef struct refine_options {

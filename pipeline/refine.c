@@ -28,6 +28,15 @@
  * noise. Here a proposal either moves the other values as the ES does (the pattern instance
  * stays, the loss is smooth) or, one time in four, one Scale alone, each kind with its own
  * sigma and 1/5 rule.
+ * REFINE_COORDINATE_SWEEP: coordinate search drawing its parameter without replacement:
+ * every movable parameter is tried once before any is tried again (a sweep), where plain
+ * coordinate search draws with replacement and so leaves about a third of the parameters
+ * untried after as many draws as there are parameters.
+ * REFINE_COORDINATE_JUMP: coordinate-sweep whose circular values (hues) jump: one visit in
+ * two proposes a uniformly drawn value instead of +-step. A hue picks a colour from a
+ * palette ramp (grey, sand, ochre, rust, ..., moss, slate), so the loss along it has a
+ * minimum per palette colour near the input's, and +-step from ochre reaches moss only
+ * through brown and olive, each worse: a local search stays on the wrong colour.
  * REFINE_ES_MIRROR: the ES with mirrored sampling: a failed move d is followed by -d.
  * Neither variant measured better than the ES on renders (EVALUATION.md, session 13); they
  * stay so that the measurement can be repeated.
@@ -48,8 +57,8 @@
 
 #include "pipeline/pipeline_internal.h"
 
-const char *const refine_method_names[REFINE_N_METHODS] = {"coordinate", "es", "random",
-                                                           "es-split", "es-mirror"};
+const char *const refine_method_names[REFINE_N_METHODS] = {
+    "coordinate", "es", "random", "es-split", "es-mirror", "coordinate-sweep", "coordinate-jump"};
 
 int refine_method_parse(const char *name)
 {
@@ -178,14 +187,44 @@ static int try_proposal(search *S)
     return better;
 }
 
-static int coordinate_search(search *S, double *step, signed char *dir)
+/* A movable parameter not yet tried in this sweep, drawn uniformly, and marked tried;
+ * when every movable one has been tried, a new sweep begins. The movable set changes with
+ * accepted moves: a parameter that becomes movable mid-sweep joins it untried. */
+static int next_in_sweep(search *S, uint8_t *tried)
+{
+    int untried = 0;
+    for (int j = 0; j < S->n_movable; j++)
+        untried += !tried[S->movable[j]];
+    if (untried == 0) {
+        memset(tried, 0, (size_t)S->s->n);
+        untried = S->n_movable;
+    }
+    int pick = (int)(pipeline_splitmix64(&S->rng) % (uint64_t)untried);
+    for (int j = 0; j < S->n_movable; j++) {
+        int i = S->movable[j];
+        if (!tried[i] && pick-- == 0) {
+            tried[i] = 1;
+            return i;
+        }
+    }
+    assert(0 && "an untried movable parameter was counted");
+    return S->movable[0];
+}
+
+/* tried: NULL draws each parameter with replacement (REFINE_COORDINATE); else n flags, all
+ * clear, for sweeps without replacement (REFINE_COORDINATE_SWEEP). jumps: a circular value's
+ * visit is a uniform draw one time in two (REFINE_COORDINATE_JUMP). */
+static int coordinate_search(search *S, double *step, signed char *dir, uint8_t *tried,
+                             int jumps)
 {
     const refine_space *s = S->s;
     while (S->r->evals < S->o->budget && S->n_movable > 0) {
-        int i = S->movable[pipeline_splitmix64(&S->rng) % (uint64_t)S->n_movable];
+        int i = tried ? next_in_sweep(S, tried)
+                      : S->movable[pipeline_splitmix64(&S->rng) % (uint64_t)S->n_movable];
         memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
-        if (s->kind[i] == REFINE_SELECTOR) {
-            S->y[i] = other_choice(s, i, S->x[i], &S->rng);
+        int jump = jumps && s->kind[i] == REFINE_CIRCULAR && (pipeline_splitmix64(&S->rng) & 1);
+        if (s->kind[i] == REFINE_SELECTOR || jump) {
+            S->y[i] = jump ? (float)uniform01(&S->rng) : other_choice(s, i, S->x[i], &S->rng);
             if (try_proposal(S) < 0)
                 return -1;
             continue;
@@ -347,6 +386,7 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     S.movable = malloc(n * sizeof(int));
     double *step = malloc(n * sizeof(double));
     signed char *dir = calloc(n, 1);
+    uint8_t *tried = NULL;
     r->curve = malloc((size_t)o->budget * sizeof(double));
     int rc = -1;
     if (!S.x || !S.y || !S.act || !S.movable || !step || !dir || !r->curve) {
@@ -366,7 +406,16 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     r->start_movable = S.n_movable;
     switch (o->method) {
     case REFINE_COORDINATE:
-        rc = coordinate_search(&S, step, dir);
+        rc = coordinate_search(&S, step, dir, NULL, 0);
+        break;
+    case REFINE_COORDINATE_SWEEP:
+    case REFINE_COORDINATE_JUMP:
+        rc = -1;
+        tried = calloc(n, 1);
+        if (!tried)
+            pipeline_error(err, errlen, "out of memory");
+        else
+            rc = coordinate_search(&S, step, dir, tried, o->method == REFINE_COORDINATE_JUMP);
         break;
     case REFINE_ES:
     case REFINE_ES_SPLIT:
@@ -396,6 +445,7 @@ done:
     free(S.movable);
     free(step);
     free(dir);
+    free(tried);
     return rc;
 }
 

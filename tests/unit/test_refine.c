@@ -156,6 +156,126 @@ static void test_quality(void **state)
     assert_true(med[REFINE_ES] < med[REFINE_RANDOM]);
 }
 
+/* A loss that never improves on the start and records which parameter each call moved. */
+typedef struct flat_problem {
+    int calls;
+    int moved[64];
+} flat_problem;
+
+static int flat_loss(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    flat_problem *p = ctx;
+    int k = -1;
+    for (int i = 0; i < N; i++)
+        if (x[i] != start[i])
+            k = i;
+    if (p->calls < 64)
+        p->moved[p->calls] = k;
+    p->calls++;
+    *loss = 1.0;
+    return 0;
+}
+
+/* active_of's activity, for a flat_problem context. */
+static int flat_active(void *ctx, const float *x, uint8_t *active, char *err, size_t errlen)
+{
+    problem q = {0};
+    (void)ctx;
+    return active_of(&q, x, active, err, errlen);
+}
+
+/* coordinate-sweep tries each movable parameter once per sweep: over two sweeps' worth of
+ * calls, the parameters moved form two runs, each a permutation of the six movable ones
+ * (GATED is inactive at the start's selector, FIXED never moves), a value taking two calls
+ * (both directions fail), the selector one. */
+static void test_coordinate_sweep(void **state)
+{
+    (void)state;
+    refine_options o;
+    refine_options_default(&o);
+    o.method = REFINE_COORDINATE_SWEEP;
+    o.budget = 1 + 2 * (5 * 2 + 1);
+    for (uint64_t seed = 1; seed <= 5; seed++) {
+        o.seed = seed;
+        flat_problem p = {0};
+        float x[N];
+        memcpy(x, start, sizeof x);
+        refine_result r;
+        char err[64];
+        assert_int_equal(refine_search(&space, &o, flat_loss, flat_active, &p, x, &r, err, sizeof err), 0);
+        assert_int_equal(p.calls, o.budget);
+        assert_int_equal(p.moved[0], -1); /* the start */
+        int call = 1;
+        for (int sweep = 0; sweep < 2; sweep++) {
+            int seen[N] = {0};
+            for (int t = 0; t < 6; t++) {
+                int k = p.moved[call];
+                assert_true(k >= 0 && k != GATED && k != FIXED);
+                assert_int_equal(seen[k], 0);
+                seen[k] = 1;
+                call += k == SEL ? 1 : 2;
+                if (k != SEL)
+                    assert_int_equal(p.moved[call - 1], k);
+            }
+        }
+        assert_int_equal(call, o.budget);
+        assert_memory_equal(x, start, sizeof x);
+        refine_result_free(&r);
+    }
+}
+
+/* One hue whose loss has a wide local minimum at the start (0.2, loss 0.1) and a narrow
+ * global one across a plateau (0.7, loss 0): the shape of a palette ramp, where the colour
+ * the input has is several palette entries away. +-step moves never leave the wide basin;
+ * coordinate-jump's uniform draws find the narrow one. */
+static int two_basins(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    (*(int *)ctx)++;
+    double h = x[0];
+    *loss = fabs(h - 0.2) < 0.15 ? 0.1 + (h - 0.2) * (h - 0.2)
+            : fabs(h - 0.7) < 0.05 ? (h - 0.7) * (h - 0.7)
+                                   : 1.0;
+    return 0;
+}
+
+static int hue_active(void *ctx, const float *x, uint8_t *active, char *err, size_t errlen)
+{
+    (void)ctx, (void)x, (void)err, (void)errlen;
+    active[0] = 1;
+    return 0;
+}
+
+static void test_coordinate_jump(void **state)
+{
+    (void)state;
+    static const refine_kind hue_kind[1] = {REFINE_CIRCULAR};
+    static const int no_choices[1] = {0};
+    const refine_space hue_space = {.n = 1, .kind = hue_kind, .choices = no_choices};
+    for (uint64_t seed = 1; seed <= 5; seed++) {
+        double best[2];
+        for (int k = 0; k < 2; k++) {
+            refine_options o;
+            refine_options_default(&o);
+            o.method = k ? REFINE_COORDINATE_JUMP : REFINE_COORDINATE_SWEEP;
+            o.budget = 200; /* ~65 jumps, each 1 in 10 to land in the narrow basin */
+            o.seed = seed;
+            float x[1] = {0.2f};
+            int calls = 0;
+            refine_result r;
+            char err[64];
+            assert_int_equal(refine_search(&hue_space, &o, two_basins, hue_active, &calls, x, &r,
+                                           err, sizeof err), 0);
+            assert_int_equal(calls, 200);
+            best[k] = r.best_loss;
+            refine_result_free(&r);
+        }
+        assert_true(best[0] >= 0.1);
+        assert_true(best[1] < 0.01);
+    }
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -368,6 +488,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_contract),
         cmocka_unit_test(test_quality),
+        cmocka_unit_test(test_coordinate_sweep),
+        cmocka_unit_test(test_coordinate_jump),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_budget_one),
         cmocka_unit_test(test_space_for_params),
