@@ -60,7 +60,7 @@ static const char *const help =
     "  --top-k K             candidates of the -topk methods (default 8)\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
-    "  --method M            the refinement: coordinate (default), coordinate-sweep,\n"
+    "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
     "                        coordinate-jump, es, es-split, es-mirror, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --refine-preset NAME  the -refine rows' search renders (default draft, predict's);\n"

@@ -43,7 +43,7 @@ static const char *const help =
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
     "  --refine N             refinement renders, the start's included (default 224)\n"
-    "  --method M             coordinate (default), coordinate-sweep, coordinate-jump,\n"
+    "  --method M             coordinate-sweep (default), coordinate, coordinate-jump,\n"
     "                         es, es-split, es-mirror, random (docs/predict.md)\n"
     "  --search-preset NAME   the candidates': draft, datagen (default), converged\n"
     "  --refine-preset NAME   the refinement's (default draft: 224 renders take about the\n"

@@ -467,8 +467,8 @@ typedef struct refine_options {
     double min_step; /* steps never shrink below this */
     uint64_t seed;
 } refine_options;
-/* coordinate (the measured best at predict's budget: docs/predict.md), budget 48, step
- * 0.25, min_step 1/128, seed 1. */
+/* coordinate-sweep (the measured best at predict's budget: docs/predict.md), budget 48,
+ * step 0.25, min_step 1/128, seed 1. */
 void refine_options_default(refine_options *o);
 
 /* The search space of a super-shader's parameters, from their names: "Mult N" selectors,
@@ -624,8 +624,9 @@ typedef struct predict_options {
     void *progress_ctx;
 } predict_options;
 
-/* top_k 8, nearest 8, refinement coordinate with budget 224, presets datagen (candidates) / draft
- * (refinement) / converged (final), light auto, colour_weight 4, blender 4, seed 1. */
+/* top_k 8, nearest 8, refinement coordinate-sweep with budget 224, presets datagen
+ * (candidates) / draft (refinement) / converged (final), light auto, colour_weight 4,
+ * blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);
