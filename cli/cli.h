@@ -73,6 +73,9 @@ int cli_parse_double(const char *sub, const char *opt, const char *s, double lo,
 /* A render preset by name (datagen_preset_find); NULL after printing "imsynth <sub>: <opt>:
  * expected one of <names>, got ..." (a usage error). */
 const struct datagen_preset *cli_parse_preset(const char *sub, const char *opt, const char *s);
+/* A refinement method by name (refine_method_parse) into *out; -1 after printing "imsynth
+ * <sub>: <opt>: expected one of <names>, got ..." (a usage error). */
+int cli_parse_refine_method(const char *sub, const char *opt, const char *s, int *out);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);
 

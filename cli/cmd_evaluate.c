@@ -144,12 +144,9 @@ int cmd_evaluate(int argc, char **argv)
                 return EXIT_USAGE;
             o.refine.budget = (int)n;
         } else if (!strcmp(a, "--method")) {
-            int m = refine_method_parse(v);
-            if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not coordinate, coordinate-sweep, "
-                               "coordinate-jump, es, es-split, es-mirror or random", v);
+            int m;
+            if (cli_parse_refine_method(sub, a, v, &m))
                 return EXIT_USAGE;
-            }
             o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))

@@ -138,12 +138,9 @@ int cmd_predict(int argc, char **argv)
                 return EXIT_USAGE;
             o.refine.budget = (int)v;
         } else if (!strcmp(a, "--method")) {
-            int m = refine_method_parse(val);
-            if (m < 0) {
-                cli_error(sub, "--method: \"%s\" is not coordinate, coordinate-sweep, "
-                               "coordinate-jump, es, es-split, es-mirror or random", val);
+            int m;
+            if (cli_parse_refine_method(sub, a, val, &m))
                 return EXIT_USAGE;
-            }
             o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--search-preset")) {
             if (!(o.search_preset = cli_parse_preset(sub, a, val)))

@@ -67,6 +67,22 @@ const datagen_preset *cli_parse_preset(const char *sub, const char *opt, const c
     return p;
 }
 
+int cli_parse_refine_method(const char *sub, const char *opt, const char *s, int *out)
+{
+    int m = refine_method_parse(s);
+    if (m >= 0) {
+        *out = m;
+        return 0;
+    }
+    char names[256] = "";
+    for (int k = 0; k < REFINE_N_METHODS; k++) {
+        size_t len = strlen(names);
+        snprintf(names + len, sizeof names - len, "%s%s", k ? ", " : "", refine_method_names[k]);
+    }
+    cli_error(sub, "%s: expected one of %s, got \"%s\"", opt, names, s);
+    return -1;
+}
+
 int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,
                      double *out)
 {

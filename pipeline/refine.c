@@ -390,10 +390,10 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     S.movable = malloc(n * sizeof(int));
     double *step = malloc(n * sizeof(double));
     signed char *dir = calloc(n, 1);
-    uint8_t *tried = NULL;
+    uint8_t *tried = calloc(n, 1); /* the sweeps' (coordinate-sweep and -jump) */
     r->curve = malloc((size_t)o->budget * sizeof(double));
     int rc = -1;
-    if (!S.x || !S.y || !S.act || !S.movable || !step || !dir || !r->curve) {
+    if (!S.x || !S.y || !S.act || !S.movable || !step || !dir || !tried || !r->curve) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -414,12 +414,7 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
         break;
     case REFINE_COORDINATE_SWEEP:
     case REFINE_COORDINATE_JUMP:
-        rc = -1;
-        tried = calloc(n, 1);
-        if (!tried)
-            pipeline_error(err, errlen, "out of memory");
-        else
-            rc = coordinate_search(&S, step, dir, tried, o->method == REFINE_COORDINATE_JUMP);
+        rc = coordinate_search(&S, step, dir, tried, o->method == REFINE_COORDINATE_JUMP);
         break;
     case REFINE_ES:
     case REFINE_ES_SPLIT:

@@ -82,6 +82,10 @@ PY
 check "the refinement's start scored at the refine preset" 0 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --refine-preset fast 2> "$tmp/err"
 check "bad --refine-preset" 2 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --method cma 2> "$tmp/err"
+check "bad --method" 2 $?
+grep -q 'expected one of coordinate, .*coordinate-sweep.*, got "cma"' "$tmp/err"
+check "bad --method: the message lists the methods" 0 $?
 
 # a rerun into an earlier output replaces it; a folder of other files is refused and kept.
 # The rerun also removes what a killed run left (OUT.tmp.PID of a process that is gone),
