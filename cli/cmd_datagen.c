@@ -26,7 +26,7 @@ static const char *const help =
     "  --out DS.sqlite        the dataset (created if missing)\n"
     "  --count N              ids in the range\n"
     "  --first-id K           first id (default 0)\n"
-    "  --shard i/n            only ids with id %% n == i (for clusters; merge the shards with\n"
+    "  --shard i/n            only ids with id % n == i (for clusters; merge the shards with\n"
     "                         `imsynth dataset merge`). i may be SLURM or JOB_COMPLETION to\n"
     "                         read $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX\n"
     "  --threads T            worker threads (default: online CPUs)\n"
