@@ -530,15 +530,21 @@ def value_mapping_module():
 
 # Hues of real surfaces (stone, earth, wood, rust, brick, slate, patina, plastics),
 # as a Color Ramp the Hue parameter walks along: uniform hue over the whole circle
-# gives mostly implausible greens and purples.
+# gives mostly implausible greens and purples. Leaf green and blue are the two vivid
+# entries (HSV saturation 0.84 and 0.81, the others 0.16-0.84): without them grass,
+# plants and blue paint were out of reach (EVALUATION.md, session 20: the grass photo's
+# mean saturation is 0.82, moss and olive reached 0.6 at most).
 PALETTE = [
-    (0.00, (0.50, 0.46, 0.42), "warm grey"), (0.10, (0.76, 0.62, 0.44), "sand"),
-    (0.20, (0.80, 0.56, 0.22), "ochre"), (0.30, (0.72, 0.32, 0.10), "rust"),
-    (0.40, (0.62, 0.16, 0.10), "brick"), (0.50, (0.42, 0.26, 0.15), "brown"),
-    (0.60, (0.46, 0.45, 0.22), "olive"), (0.70, (0.26, 0.42, 0.22), "moss"),
-    (0.80, (0.26, 0.31, 0.46), "slate"), (0.90, (0.15, 0.42, 0.46), "patina"),
-    (1.00, (0.42, 0.20, 0.36), "plum"),
+    (0.0, (0.50, 0.46, 0.42), "warm grey"), (1.0, (0.76, 0.62, 0.44), "sand"),
+    (2.0, (0.80, 0.56, 0.22), "ochre"), (3.0, (0.72, 0.32, 0.10), "rust"),
+    (4.0, (0.62, 0.16, 0.10), "brick"), (5.0, (0.42, 0.26, 0.15), "brown"),
+    (6.0, (0.46, 0.45, 0.22), "olive"), (7.0, (0.26, 0.42, 0.22), "moss"),
+    (8.0, (0.24, 0.50, 0.08), "leaf green"), (9.0, (0.26, 0.31, 0.46), "slate"),
+    (10.0, (0.12, 0.26, 0.62), "blue"), (11.0, (0.15, 0.42, 0.46), "patina"),
+    (12.0, (0.42, 0.20, 0.36), "plum"),
 ]
+PALETTE = [(pos / PALETTE[-1][0], c, name) for pos, c, name in PALETTE]
+PALETTE_NAMES = ", ".join(name for _, _, name in PALETTE)
 
 
 def hsv_color_module():
@@ -600,13 +606,13 @@ PARAMS = (noise_params("A") + noise_params("B") + noise_params("C") + [
     ("Mult 4 Color Mapping", "Colour mapping", "shape of the colour signal", MAP_CHOICES),
     ("Color Mapping Low", "Colour mapping", "window start", "0..0.45"),
     ("Color Mapping High", "Colour mapping", "window end", "0.55..1"),
-    ("Color 1 Hue", "Colour", "dark colour hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Color 1 Hue", "Colour", "dark colour hue", "palette hue (" + PALETTE_NAMES + ")"),
     ("Color 1 Saturation", "Colour", "dark colour saturation", "palette saturation x 0..1.3 x parameter"),
     ("Color 1 Value", "Colour", "dark colour value", "0.02..0.45"),
-    ("Color 2 Hue", "Colour", "light colour hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Color 2 Hue", "Colour", "light colour hue", "palette hue (" + PALETTE_NAMES + ")"),
     ("Color 2 Saturation", "Colour", "light colour saturation", "palette saturation x 0..1 x parameter"),
     ("Color 2 Value", "Colour", "light colour value", "0.3..0.95"),
-    ("Accent Hue", "Colour", "accent (spots, rust) hue", "palette hue (grey, sand, ochre, rust, brick, brown, olive, moss, slate, patina, plum)"),
+    ("Accent Hue", "Colour", "accent (spots, rust) hue", "palette hue (" + PALETTE_NAMES + ")"),
     ("Accent Saturation", "Colour", "accent saturation", "palette saturation x 0..1.5 x parameter"),
     ("Accent Value", "Colour", "accent value", "0.05..0.8"),
     ("Accent Coverage", "Colour", "share of the surface under accent spots",
