@@ -534,16 +534,17 @@ def value_mapping_module():
 # entries (HSV saturation 0.84 and 0.81, the others 0.16-0.84): without them grass,
 # plants and blue paint were out of reach (EVALUATION.md, session 20: the grass photo's
 # mean saturation is 0.82, moss and olive reached 0.6 at most).
-PALETTE = [
-    (0.0, (0.50, 0.46, 0.42), "warm grey"), (1.0, (0.76, 0.62, 0.44), "sand"),
-    (2.0, (0.80, 0.56, 0.22), "ochre"), (3.0, (0.72, 0.32, 0.10), "rust"),
-    (4.0, (0.62, 0.16, 0.10), "brick"), (5.0, (0.42, 0.26, 0.15), "brown"),
-    (6.0, (0.46, 0.45, 0.22), "olive"), (7.0, (0.26, 0.42, 0.22), "moss"),
-    (8.0, (0.24, 0.50, 0.08), "leaf green"), (9.0, (0.26, 0.31, 0.46), "slate"),
-    (10.0, (0.12, 0.26, 0.62), "blue"), (11.0, (0.15, 0.42, 0.46), "patina"),
-    (12.0, (0.42, 0.20, 0.36), "plum"),
+PALETTE_COLOURS = [
+    ((0.50, 0.46, 0.42), "warm grey"), ((0.76, 0.62, 0.44), "sand"),
+    ((0.80, 0.56, 0.22), "ochre"), ((0.72, 0.32, 0.10), "rust"),
+    ((0.62, 0.16, 0.10), "brick"), ((0.42, 0.26, 0.15), "brown"),
+    ((0.46, 0.45, 0.22), "olive"), ((0.26, 0.42, 0.22), "moss"),
+    ((0.24, 0.50, 0.08), "leaf green"), ((0.26, 0.31, 0.46), "slate"),
+    ((0.12, 0.26, 0.62), "blue"), ((0.15, 0.42, 0.46), "patina"),
+    ((0.42, 0.20, 0.36), "plum"),
 ]
-PALETTE = [(pos / PALETTE[-1][0], c, name) for pos, c, name in PALETTE]
+# (position, linear RGB, name): evenly spaced stops from 0 to 1.
+PALETTE = [(k / (len(PALETTE_COLOURS) - 1), c, name) for k, (c, name) in enumerate(PALETTE_COLOURS)]
 PALETTE_NAMES = ", ".join(name for _, _, name in PALETTE)
 
 
