@@ -37,8 +37,8 @@
  * untried after as many draws as there are parameters.
  * REFINE_COORDINATE_JUMP: coordinate-sweep whose circular values (hues) jump: one visit in
  * two proposes a uniformly drawn value instead of +-step. A hue picks a colour from a
- * palette ramp (grey, sand, ochre, rust, ..., moss, slate), so the loss along it has a
- * minimum per palette colour near the input's, and +-step from ochre reaches moss only
+ * palette ramp (grey, sand, ochre, rust, ..., moss, leaf green, slate, blue, ...), so the
+ * loss along it has a minimum per palette colour near the input's, and +-step from ochre reaches moss only
  * through brown and olive, each worse: a local search stays on the wrong colour.
  * Coordinate search became the default in session 19: at predict's budget (224 renders at
  * draft) it ends closer than the ES on 38 of 44 hand-made inputs under the loss's descriptor
