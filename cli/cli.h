@@ -14,6 +14,9 @@
 
 #include "shadergraph/shadergraph.h" /* sg_blender_mode */
 
+struct datagen_preset;
+struct refine_options;
+
 enum { EXIT_OK = 0, EXIT_FAILURE_WORK = 1, EXIT_USAGE = 2 };
 
 /* Each takes the arguments after the subcommand name (argv[0] is the subcommand). */
@@ -73,9 +76,12 @@ int cli_parse_double(const char *sub, const char *opt, const char *s, double lo,
 /* A render preset by name (datagen_preset_find); NULL after printing "imsynth <sub>: <opt>:
  * expected one of <names>, got ..." (a usage error). */
 const struct datagen_preset *cli_parse_preset(const char *sub, const char *opt, const char *s);
-/* A refinement method by name (refine_method_parse) into *out; -1 after printing "imsynth
- * <sub>: <opt>: expected one of <names>, got ..." (a usage error). */
-int cli_parse_refine_method(const char *sub, const char *opt, const char *s, int *out);
+/* The refinement's options, predict's and evaluate's alike: --refine N, --method M,
+ * --colour-weight W, --colour-phase N, --colour-phase-weight W into *ro. 1 when opt was
+ * one of them, 0 when not, -1 after printing "imsynth <sub>: <opt>: expected ..." (a usage
+ * error). */
+int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
+                            struct refine_options *ro);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);
 

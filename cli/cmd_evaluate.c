@@ -26,7 +26,7 @@ static const char *const help =
     "  predictor       the predictor's most probable hypothesis\n"
     "  predictor-topk  its --top-k hypotheses, rendered; the best by the training descriptor\n"
     "  nearest-refine, predictor-refine  the two -topk picks refined as imsynth predict\n"
-    "                  does: --refine renders of the search, loss G + 4 C (docs/predict.md)\n"
+    "                  does: --refine renders of the search, loss G + w C (docs/predict.md)\n"
     "A candidate is rendered with the --preset in the input's own scene (a synthetic row's\n"
     "view: light, flash, exposure, white balance, texture transform); every render of one\n"
     "input shares one seed, a function of --seed and the input only.\n"
@@ -63,6 +63,9 @@ static const char *const help =
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
     "                        coordinate-jump, es, es-split, es-mirror, random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
+    "  --colour-weight W     the -refine rows' loss G + W C (default 4, predict's)\n"
+    "  --colour-phase N      their first N renders weigh C --colour-phase-weight\n"
+    "                        (default 12) instead (default N 0, predict's)\n"
     "  --refine-preset NAME  the -refine rows' search renders (default draft, predict's);\n"
     "                        their results are rendered and measured at --preset\n"
     "  --limit N             the first N rows of the test dataset only\n"
@@ -103,7 +106,6 @@ int cmd_evaluate(int argc, char **argv)
     predict_options_default(&po);
     o.refine = po.refine;
     o.refine_preset = po.refine_preset;
-    o.colour_weight = PIPELINE_COLOUR_WEIGHT;
     int open_line = 0;
     o.progress = progress;
     o.progress_ctx = &open_line;
@@ -115,6 +117,11 @@ int cmd_evaluate(int argc, char **argv)
         }
         const char *v = argv[++i];
         long long n;
+        int r = cli_parse_refine_option(sub, a, v, &o.refine);
+        if (r < 0)
+            return EXIT_USAGE;
+        if (r > 0)
+            continue;
         if (!strcmp(a, "--model"))
             o.model_dir = v;
         else if (!strcmp(a, "--test"))
@@ -139,15 +146,6 @@ int cmd_evaluate(int argc, char **argv)
             if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.top_k = (int)n;
-        } else if (!strcmp(a, "--refine")) {
-            if (cli_parse_ll(sub, a, v, 1, 100000, &n))
-                return EXIT_USAGE;
-            o.refine.budget = (int)n;
-        } else if (!strcmp(a, "--method")) {
-            int m;
-            if (cli_parse_refine_method(sub, a, v, &m))
-                return EXIT_USAGE;
-            o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))
                 return EXIT_USAGE;

@@ -50,6 +50,8 @@ static const char *const help =
     "                         time of 64 at datagen; docs/predict.md)\n"
     "  --final-preset NAME    the preview's (default converged)\n"
     "  --colour-weight W      weight of the colour term (default 4)\n"
+    "  --colour-phase N       the refinement's first N renders weigh it\n"
+    "                         --colour-phase-weight (default 12) instead (default N 0)\n"
     "  --threads T            render threads (default: online CPUs); never changes a byte\n"
     "  --seed S               render noise seed (default 1)\n"
     "  --blender 4|3          node and BSDF semantics (default 4)\n"
@@ -85,7 +87,6 @@ int cmd_predict(int argc, char **argv)
     predict_options_default(&o);
     int quiet = 0;
     long long v;
-    double d;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] != '-') {
@@ -109,6 +110,11 @@ int cmd_predict(int argc, char **argv)
             return EXIT_USAGE;
         }
         const char *val = argv[++i];
+        int r = cli_parse_refine_option(sub, a, val, &o.refine);
+        if (r < 0)
+            return EXIT_USAGE;
+        if (r > 0)
+            continue;
         if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             o.out_dir = val;
         else if (!strcmp(a, "--model"))
@@ -133,15 +139,6 @@ int cmd_predict(int argc, char **argv)
             if (cli_parse_ll(sub, a, val, 0, 256, &v))
                 return EXIT_USAGE;
             o.nearest = (int)v;
-        } else if (!strcmp(a, "--refine")) {
-            if (cli_parse_ll(sub, a, val, 1, 100000, &v))
-                return EXIT_USAGE;
-            o.refine.budget = (int)v;
-        } else if (!strcmp(a, "--method")) {
-            int m;
-            if (cli_parse_refine_method(sub, a, val, &m))
-                return EXIT_USAGE;
-            o.refine.method = (refine_method)m;
         } else if (!strcmp(a, "--search-preset")) {
             if (!(o.search_preset = cli_parse_preset(sub, a, val)))
                 return EXIT_USAGE;
@@ -151,10 +148,6 @@ int cmd_predict(int argc, char **argv)
         } else if (!strcmp(a, "--final-preset")) {
             if (!(o.final_preset = cli_parse_preset(sub, a, val)))
                 return EXIT_USAGE;
-        } else if (!strcmp(a, "--colour-weight")) {
-            if (cli_parse_double(sub, a, val, 0.0, 1e6, &d))
-                return EXIT_USAGE;
-            o.colour_weight = d;
         } else if (!strcmp(a, "--threads")) {
             if (cli_parse_ll(sub, a, val, 0, 1024, &v))
                 return EXIT_USAGE;

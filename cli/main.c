@@ -67,20 +67,37 @@ const datagen_preset *cli_parse_preset(const char *sub, const char *opt, const c
     return p;
 }
 
-int cli_parse_refine_method(const char *sub, const char *opt, const char *s, int *out)
+int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
+                            refine_options *ro)
 {
-    int m = refine_method_parse(s);
-    if (m >= 0) {
-        *out = m;
+    long long n;
+    double d;
+    if (!strcmp(opt, "--refine")) {
+        if (cli_parse_ll(sub, opt, val, 1, 100000, &n))
+            return -1;
+        ro->budget = (int)n;
+    } else if (!strcmp(opt, "--method")) {
+        int m = refine_method_parse(val);
+        if (m < 0) {
+            cli_error(sub, "%s: expected one of %s, got \"%s\"", opt, refine_method_list(), val);
+            return -1;
+        }
+        ro->method = (refine_method)m;
+    } else if (!strcmp(opt, "--colour-weight")) {
+        if (cli_parse_double(sub, opt, val, 0.0, 1e6, &d))
+            return -1;
+        ro->colour_weight = d;
+    } else if (!strcmp(opt, "--colour-phase")) {
+        if (cli_parse_ll(sub, opt, val, 0, 100000, &n))
+            return -1;
+        ro->colour_phase = (int)n;
+    } else if (!strcmp(opt, "--colour-phase-weight")) {
+        if (cli_parse_double(sub, opt, val, 0.0, 1e6, &d))
+            return -1;
+        ro->colour_phase_weight = d;
+    } else
         return 0;
-    }
-    char names[256] = "";
-    for (int k = 0; k < REFINE_N_METHODS; k++) {
-        size_t len = strlen(names);
-        snprintf(names + len, sizeof names - len, "%s%s", k ? ", " : "", refine_method_names[k]);
-    }
-    cli_error(sub, "%s: expected one of %s, got \"%s\"", opt, names, s);
-    return -1;
+    return 1;
 }
 
 int cli_parse_double(const char *sub, const char *opt, const char *s, double lo, double hi,

@@ -368,7 +368,7 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
  * distance and the colour term of a render at the refine preset and the input's seed.
  * Proposals are not kept as candidates (a search renders tens of them); the result is
  * rendered again at the evaluation's preset to be measured like every other method. */
-static int refine_loss_cb(void *ctx, const float *params, double *loss, char *err,
+static int refine_loss_cb(void *ctx, const float *params, double *g, double *c, char *err,
                           size_t errlen)
 {
     input_work *iw = ctx;
@@ -379,13 +379,10 @@ static int refine_loss_cb(void *ctx, const float *params, double *loss, char *er
     int rc = render_params(iw, refine_preset(w->sh->o), params, &img, err, errlen);
     if (rc == 0)
         rc = describe(w, k, &img, &desc, err, errlen);
-    double c = 0.0;
     if (rc == 0)
-        rc = evaluate_colour_distance(&img, &iw->in->img, &c, err, errlen);
+        rc = evaluate_colour_distance(&img, &iw->in->img, c, err, errlen);
     if (rc == 0)
-        *loss = pipeline_refine_loss(evaluate_gram_distance(iw->in_desc[k], desc, w->offsets[k],
-                                                            w->n_layers[k]),
-                                     c, w->sh->o->colour_weight);
+        *g = evaluate_gram_distance(iw->in_desc[k], desc, w->offsets[k], w->n_layers[k]);
     free(desc);
     image_free(&img);
     return rc;
@@ -1058,7 +1055,9 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddNumberToObject(cmd, "top_k", o->top_k);
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
-    cJSON_AddNumberToObject(cmd, "colour_weight", o->colour_weight);
+    cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);
+    cJSON_AddNumberToObject(cmd, "colour_phase", o->refine.colour_phase);
+    cJSON_AddNumberToObject(cmd, "colour_phase_weight", o->refine.colour_phase_weight);
     cJSON_AddNumberToObject(cmd, "limit", (double)o->limit);
     cJSON_AddNumberToObject(cmd, "seed", (double)o->seed);
     cJSON_AddNumberToObject(cmd, "blender", o->blender);

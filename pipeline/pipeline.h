@@ -459,16 +459,26 @@ extern const char *const refine_method_names[REFINE_N_METHODS];
 /* The method named `name` ("coordinate", "es", "random", "es-split", "es-mirror",
  * "coordinate-sweep", "coordinate-jump"), or -1. */
 int refine_method_parse(const char *name);
+/* The names, comma-separated, for messages (as datagen_preset_names). */
+const char *refine_method_list(void);
 
+/* The loss has two terms, the Gram distance and the colour term (refine_loss_fn), and the
+ * search minimises gram + w x colour: w = colour_weight, except during the first
+ * colour_phase evaluations, when it is colour_phase_weight (a colour-heavy start: the
+ * search first finds the input's colour, then the texture; pipeline/refine.c says why). */
 typedef struct refine_options {
     refine_method method;
     int budget;      /* loss evaluations in all, the start's included (>= 1) */
     double step;     /* a value's first step (coordinate) or the first sigma (es) */
     double min_step; /* steps never shrink below this */
     uint64_t seed;
+    double colour_weight;       /* w after the colour phase (PIPELINE_COLOUR_WEIGHT) */
+    int colour_phase;           /* evaluations weighted colour_phase_weight (0: none) */
+    double colour_phase_weight; /* w during them */
 } refine_options;
 /* coordinate-sweep (the measured best at predict's budget: docs/predict.md), budget 48,
- * step 0.25, min_step 1/128, seed 1. */
+ * step 0.25, min_step 1/128, seed 1, colour_weight PIPELINE_COLOUR_WEIGHT, no colour phase
+ * (its weight PIPELINE_COLOUR_PHASE_WEIGHT when one is asked for). */
 void refine_options_default(refine_options *o);
 
 /* The search space of a super-shader's parameters, from their names: "Mult N" selectors,
@@ -481,20 +491,23 @@ void refine_space_for_params(const char *const *names, int n, refine_kind *kind,
  * training descriptor's Gram distance and evaluate_colour_distance's term). One definition,
  * so that the evaluation measures the search predict runs. */
 double pipeline_refine_loss(double gram, double colour, double colour_weight);
-#define PIPELINE_COLOUR_WEIGHT 4.0 /* predict's default */
+#define PIPELINE_COLOUR_WEIGHT 4.0        /* predict's default */
+#define PIPELINE_COLOUR_PHASE_WEIGHT 12.0 /* the colour phase's, when there is one */
 
-/* The loss of a parameter set (lower is better): 0, or -1 with a message. */
-typedef int (*refine_loss_fn)(void *ctx, const float *params, double *loss, char *err,
-                              size_t errlen);
+/* The two terms of a parameter set's loss (each lower is better; the search weighs them,
+ * refine_options): 0, or -1 with a message. A loss of one term sets colour to 0. */
+typedef int (*refine_loss_fn)(void *ctx, const float *params, double *gram, double *colour,
+                              char *err, size_t errlen);
 /* Which parameters matter at params (active[i] 0 or 1): 0, or -1 with a message. */
 typedef int (*refine_active_fn)(void *ctx, const float *params, uint8_t *active, char *err,
                                 size_t errlen);
 
 typedef struct refine_result {
-    double *curve; /* budget entries, the first `evals`: best loss after each evaluation */
+    double *curve; /* budget entries, the first `evals`: best loss after each evaluation,
+                    * under that evaluation's weight */
     int evals, accepted;
     int start_movable; /* parameters the search could move at the start */
-    double start_loss, best_loss;
+    double start_loss, best_loss; /* both under colour_weight, the final weight */
 } refine_result;
 
 /* Searches from params (in: the start, every value in [0, 1]; out: the best found) with
@@ -571,7 +584,6 @@ typedef struct evaluate_options {
     uint64_t seed;            /* render seeds and the random method's draws */
     int sheet_inputs;         /* synthetic inputs on the contact sheet (16) */
     refine_options refine;    /* the -refine methods' search (budget 1: their start) */
-    double colour_weight;     /* its loss's (PIPELINE_COLOUR_WEIGHT) */
     /* After every input, with counts and seconds since the start. May be NULL. */
     void (*progress)(void *ctx, long long done, long long todo, double seconds);
     void *progress_ctx;
@@ -606,12 +618,12 @@ typedef struct predict_options {
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
     int top_k;                /* predictor hypotheses (8) */
     int nearest;              /* catalogue candidates (8; 0: none) */
-    refine_options refine;    /* budget 1: the best candidate as it is (default 224) */
+    refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
+                               * colour_weight also scores the candidates and the final */
     const datagen_preset *search_preset; /* the candidates ("datagen") */
     const datagen_preset *refine_preset; /* the refinement's renders ("draft") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */
-    double colour_weight;     /* pipeline_refine_loss's (PIPELINE_COLOUR_WEIGHT) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;
     uint64_t seed;            /* render noise (one seed for the whole run) */

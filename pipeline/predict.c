@@ -59,7 +59,6 @@ void predict_options_default(predict_options *o)
     o->light = PREDICT_LIGHT_AUTO;
     o->blender = SG_BLENDER_4;
     o->seed = 1;
-    o->colour_weight = PIPELINE_COLOUR_WEIGHT;
 }
 
 const char *const predict_light_names[3] = {"scene", "flash", "auto"};
@@ -188,17 +187,7 @@ static int score(scorer *sc, const float *params, double *g, double *c, char *er
 
 static double combine(const scorer *sc, double g, double c)
 {
-    return pipeline_refine_loss(g, c, sc->o->colour_weight);
-}
-
-static int loss_cb(void *ctx, const float *params, double *loss, char *err, size_t errlen)
-{
-    scorer *sc = ctx;
-    double g, c;
-    if (score(sc, params, &g, &c, err, errlen))
-        return -1;
-    *loss = combine(sc, g, c);
-    return 0;
+    return pipeline_refine_loss(g, c, sc->o->refine.colour_weight);
 }
 
 static int active_cb(void *ctx, const float *params, uint8_t *active, char *err, size_t errlen)
@@ -392,14 +381,16 @@ typedef struct refine_ctx {
     double best;
 } refine_ctx;
 
-static int refine_loss_cb(void *ctx, const float *params, double *loss, char *err, size_t errlen)
+static int refine_loss_cb(void *ctx, const float *params, double *g, double *c, char *err,
+                          size_t errlen)
 {
     refine_ctx *rc = ctx;
-    if (loss_cb(rc->sc, params, loss, err, errlen))
+    if (score(rc->sc, params, g, c, err, errlen))
         return -1;
     rc->evals++;
-    if (*loss < rc->best)
-        rc->best = *loss;
+    double loss = combine(rc->sc, *g, *c); /* the final weight's, as report.json's */
+    if (loss < rc->best)
+        rc->best = loss;
     progress(rc->sc->o, "refine", rc->evals, rc->budget, rc->best);
     return 0;
 }
@@ -685,7 +676,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddStringToObject(lossj, "descriptor",
                             predictor_descriptor_kind(pred) == DATAGEN_DESC_VGG19_F16 ? "vgg19"
                                                                                         : "mobilenetv2");
-    cJSON_AddNumberToObject(lossj, "colour_weight", o->colour_weight);
+    cJSON_AddNumberToObject(lossj, "colour_weight", o->refine.colour_weight);
+    cJSON_AddNumberToObject(lossj, "colour_phase", o->refine.colour_phase);
+    cJSON_AddNumberToObject(lossj, "colour_phase_weight", o->refine.colour_phase_weight);
     cJSON_AddStringToObject(lossj, "search_preset", o->search_preset->name);
     cJSON_AddStringToObject(lossj, "refine_preset", o->refine_preset->name);
     cJSON_AddStringToObject(lossj, "final_preset", o->final_preset->name);

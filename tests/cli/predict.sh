@@ -87,6 +87,26 @@ check "bad --method" 2 $?
 grep -q 'expected one of coordinate, .*coordinate-sweep.*, got "cma"' "$tmp/err"
 check "bad --method: the message lists the methods" 0 $?
 
+# --colour-phase: the first N evaluations weigh the colour term --colour-phase-weight (12):
+# the curve starts from the start's terms under 12, start_loss and best_loss are under 4
+"$imsynth" predict "$input" -o "$tmp/cp" $fast --light scene --colour-phase 3
+check "predict --colour-phase 3" 0 $?
+py - "$tmp/cp/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+ref, loss = r["refinement"], r["loss"]
+assert loss["colour_phase"] == 3 and loss["colour_phase_weight"] == 12 and loss["colour_weight"] == 4, loss
+chosen = [c for c in r["candidates"] if c["chosen"]][0]["scene"]
+assert abs(ref["curve"][0] - (chosen["gram"] + 12 * chosen["colour"])) < 1e-12, (ref, chosen)
+assert abs(ref["start_loss"] - (chosen["gram"] + 4 * chosen["colour"])) < 1e-12, (ref, chosen)
+c = ref["curve"]
+assert len(c) == 6 and all(b <= a for a, b in zip(c, c[1:])), c
+assert c[-1] == ref["best_loss"] <= ref["start_loss"], ref
+PY
+check "the colour phase: the curve under 12 first, the losses reported under 4" 0 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --colour-phase -1 2> "$tmp/err"
+check "bad --colour-phase" 2 $?
+
 # a rerun into an earlier output replaces it; a folder of other files is refused and kept.
 # The rerun also removes what a killed run left (OUT.tmp.PID of a process that is gone),
 # and keeps a live run's

@@ -32,7 +32,8 @@ typedef struct problem {
 } problem;
 
 /* Selector 4 at choice 2 (of 3) makes value 6 matter; at other choices the loss pays 1. */
-static int quadratic(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+static int quadratic(void *ctx, const float *x, double *loss, double *colour, char *err,
+                     size_t errlen)
 {
     problem *p = ctx;
     if (++p->calls == p->fail_at) {
@@ -51,6 +52,7 @@ static int quadratic(void *ctx, const float *x, double *loss, char *err, size_t 
     else
         f += 1.0;
     *loss = f;
+    *colour = 0.0;
     return 0;
 }
 
@@ -99,9 +101,9 @@ static void test_contract(void **state)
         assert_true(best <= r.start_loss);
         /* The returned point has the returned loss. */
         problem q = {0};
-        double f;
+        double f, c0;
         char err[64];
-        assert_int_equal(quadratic(&q, x, &f, err, sizeof err), 0);
+        assert_int_equal(quadratic(&q, x, &f, &c0, err, sizeof err), 0);
         assert_true(f == best);
         assert_true(x[FIXED] == start[FIXED]);
         for (int i = 0; i < N; i++)
@@ -162,7 +164,8 @@ typedef struct flat_problem {
     int moved[64];
 } flat_problem;
 
-static int flat_loss(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+static int flat_loss(void *ctx, const float *x, double *loss, double *colour, char *err,
+                     size_t errlen)
 {
     (void)err, (void)errlen;
     flat_problem *p = ctx;
@@ -174,6 +177,7 @@ static int flat_loss(void *ctx, const float *x, double *loss, char *err, size_t 
         p->moved[p->calls] = k;
     p->calls++;
     *loss = 1.0;
+    *colour = 0.0;
     return 0;
 }
 
@@ -229,7 +233,8 @@ static void test_coordinate_sweep(void **state)
  * global one across a plateau (0.7, loss 0): the shape of a palette ramp, where the colour
  * the input has is several palette entries away. +-step moves never leave the wide basin;
  * coordinate-jump's uniform draws find the narrow one. */
-static int two_basins(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+static int two_basins(void *ctx, const float *x, double *loss, double *colour, char *err,
+                      size_t errlen)
 {
     (void)err, (void)errlen;
     (*(int *)ctx)++;
@@ -237,6 +242,7 @@ static int two_basins(void *ctx, const float *x, double *loss, char *err, size_t
     *loss = fabs(h - 0.2) < 0.15 ? 0.1 + (h - 0.2) * (h - 0.2)
             : fabs(h - 0.7) < 0.05 ? (h - 0.7) * (h - 0.7)
                                    : 1.0;
+    *colour = 0.0;
     return 0;
 }
 
@@ -361,7 +367,8 @@ typedef struct watch {
     int calls, zoom_only, others_only, both;
 } watch;
 
-static int watched(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+static int watched(void *ctx, const float *x, double *loss, double *colour, char *err,
+                   size_t errlen)
 {
     (void)err, (void)errlen;
     watch *w = ctx;
@@ -379,6 +386,7 @@ static int watched(void *ctx, const float *x, double *loss, char *err, size_t er
         w->best_loss = f;
     }
     *loss = f;
+    *colour = 0.0;
     return 0;
 }
 
@@ -433,7 +441,8 @@ typedef struct mirror_watch {
     int calls, prev_failed, prev_mirror, mirrors, fresh_after_fail;
 } mirror_watch;
 
-static int mirror_watched(void *ctx, const float *x, double *loss, char *err, size_t errlen)
+static int mirror_watched(void *ctx, const float *x, double *loss, double *colour, char *err,
+                          size_t errlen)
 {
     (void)err, (void)errlen;
     mirror_watch *w = ctx;
@@ -461,6 +470,7 @@ static int mirror_watched(void *ctx, const float *x, double *loss, char *err, si
     w->prev_mirror = failed && is_mirror;
     w->prev_failed = failed && !w->prev_mirror;
     *loss = f;
+    *colour = 0.0;
     return 0;
 }
 
@@ -483,6 +493,80 @@ static void test_mirror(void **state)
     }
 }
 
+/* The colour phase: a value whose two terms pull apart, gram (x - 0.2)^2 and colour
+ * (x - 0.8)^2, so that gram + w colour is least at (0.2 + 0.8 w) / (1 + w): 0.68 at the final
+ * weight 4, 0.754 at the phase's 12. */
+static int two_terms(void *ctx, const float *x, double *gram, double *colour, char *err,
+                     size_t errlen)
+{
+    (void)err, (void)errlen;
+    (*(int *)ctx)++;
+    *gram = (x[0] - 0.2) * (x[0] - 0.2);
+    *colour = (x[0] - 0.8) * (x[0] - 0.8);
+    return 0;
+}
+
+static double two_terms_at(double x, double w)
+{
+    return (x - 0.2) * (x - 0.2) + w * (x - 0.8) * (x - 0.8);
+}
+
+static void test_colour_phase(void **state)
+{
+    (void)state;
+    static const refine_kind value_kind[1] = {REFINE_VALUE};
+    static const int no_choices[1] = {0};
+    const refine_space vs = {.n = 1, .kind = value_kind, .choices = no_choices};
+    /* phase: none, half the budget, all of it. */
+    const int phases[3] = {0, 60, 120};
+    const double optima[3] = {0.68, 0.68, 0.2 + 0.6 * 12.0 / 13.0};
+    for (int k = 0; k < 3; k++) {
+        refine_options o;
+        refine_options_default(&o);
+        o.budget = 120;
+        o.colour_phase = phases[k];
+        assert_true(o.colour_weight == PIPELINE_COLOUR_WEIGHT);
+        assert_true(o.colour_phase_weight == PIPELINE_COLOUR_PHASE_WEIGHT);
+        float x[1] = {0.3f};
+        int calls = 0;
+        refine_result r;
+        char err[64];
+        assert_int_equal(refine_search(&vs, &o, two_terms, hue_active, &calls, x, &r, err,
+                                       sizeof err), 0);
+        /* A change of weight re-weighs the best's terms: no evaluation more. */
+        assert_int_equal(calls, 120);
+        printf("# colour phase %3d: x %.4f (optimum %.4f)\n", phases[k], (double)x[0], optima[k]);
+        assert_true(fabs(x[0] - optima[k]) < 0.01);
+        /* start and best under the final weight; the curve under each evaluation's. */
+        assert_true(fabs(r.start_loss - two_terms_at(0.3f, 4.0)) < 1e-12);
+        assert_true(fabs(r.best_loss - two_terms_at(x[0], 4.0)) < 1e-12);
+        assert_true(fabs(r.curve[0] - two_terms_at(0.3f, k ? 12.0 : 4.0)) < 1e-12);
+        for (int i = 1; i < r.evals; i++)
+            assert_true(r.curve[i] <= r.curve[i - 1]); /* the weight only falls here */
+        if (k == 1) {
+            /* The phase ends at its own optimum (the least of gram + 12 colour is
+             * 0.36 x 12 / 13), and the curve drops to at most that point's loss under
+             * weight 4 (evaluation 60 may improve on it). */
+            assert_true(fabs(r.curve[59] - 0.36 * 12.0 / 13.0) < 1e-4);
+            assert_true(r.curve[60] <= two_terms_at(0.2 + 0.6 * 12.0 / 13.0, 4.0) + 1e-3);
+            assert_true(r.curve[60] < r.curve[59]);
+        }
+        refine_result_free(&r);
+    }
+}
+
+/* refine_method_list is refine_method_names joined. */
+static void test_method_list(void **state)
+{
+    (void)state;
+    char joined[256] = "";
+    for (int m = 0; m < REFINE_N_METHODS; m++) {
+        size_t len = strlen(joined);
+        snprintf(joined + len, sizeof joined - len, "%s%s", m ? ", " : "", refine_method_names[m]);
+    }
+    assert_string_equal(refine_method_list(), joined);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -495,6 +579,8 @@ int main(void)
         cmocka_unit_test(test_space_for_params),
         cmocka_unit_test(test_zoom_split),
         cmocka_unit_test(test_mirror),
+        cmocka_unit_test(test_colour_phase),
+        cmocka_unit_test(test_method_list),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
