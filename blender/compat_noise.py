@@ -65,7 +65,11 @@ def _f32(x):
 
 
 def musgrave_dimension(roughness, lacunarity):
-    """The Musgrave Dimension H with lacunarity^-H == roughness (noise_texture.c mirrors it)."""
+    """The Musgrave Dimension H with lacunarity^-H == roughness (noise_texture.c mirrors it).
+
+    From the float32 values of both, as noise_texture.c reads its sockets: the two then
+    compute the same float Dimension for any decimal in the JSON."""
+    roughness, lacunarity = _f32(roughness), _f32(lacunarity)
     if roughness <= 0.0:
         return 1e30
     if lacunarity == 1.0 or roughness == 1.0:
@@ -81,6 +85,23 @@ def _musgrave_roughness(dimension, lacunarity):
         return _f32(lac ** -h)
     except OverflowError:
         return math.inf
+
+
+def musgrave_roughness_for_export(dimension, lacunarity):
+    """The Roughness to write for a 3.4 Musgrave with this Dimension and Lacunarity (the
+    Lacunarity as it is written beside it: the importer translates with that value).
+
+    Not Lacunarity^-Dimension as computed (0.45 comes back as 0.45000002: the float
+    Dimension lost the last bits), but the shortest decimal whose translation
+    (musgrave_dimension) stores the same float Dimension: importing it builds the same 3.4
+    node, and a material written by us comes back with the numbers it was written with.
+    Falls back to the computed value when no decimal of up to 9 digits does."""
+    stored = _f32(dimension)
+    for digits in range(1, 10):
+        r = float("%.*g" % (digits, _musgrave_roughness(dimension, lacunarity)))
+        if 0.0 < r <= 1.0 and _f32(musgrave_dimension(r, lacunarity)) == stored:
+            return r
+    return _musgrave_roughness(dimension, lacunarity)
 
 
 def noise_node_for_blender3(node, linked_inputs=(), linked_outputs=()):

@@ -263,7 +263,7 @@ class Exporter:
     def musgrave(self, node, where):
         """3.x Musgrave -> 4.x Noise Texture (the inverse of compat_noise's translation)."""
         try:
-            from compat_noise import _musgrave_roughness
+            from compat_noise import musgrave_roughness_for_export
         except ImportError as e:
             self.fail(where, "blender/compat_noise.py is needed to translate a Musgrave "
                       "Texture (%s)" % e)
@@ -275,8 +275,8 @@ class Exporter:
         if detail < 1.0:
             self.fail(where, "Musgrave Detail %g < 1 has no Noise Texture equivalent" % detail)
         dims = node.musgrave_dimensions
-        lac = node.inputs["Lacunarity"].default_value
-        rough = _musgrave_roughness(node.inputs["Dimension"].default_value, lac)
+        lac = _num(node.inputs["Lacunarity"].default_value)
+        rough = musgrave_roughness_for_export(node.inputs["Dimension"].default_value, lac)
         d = {"name": node.name, "type": "ShaderNodeTexNoise",
              "location": _absolute_location(node),
              "properties": {"noise_dimensions": dims, "noise_type": node.musgrave_type},
