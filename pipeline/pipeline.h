@@ -453,11 +453,12 @@ typedef enum refine_method {
     REFINE_ES_MIRROR,
     REFINE_COORDINATE_SWEEP,
     REFINE_COORDINATE_JUMP,
+    REFINE_COORDINATE_ZOOM,
     REFINE_N_METHODS
 } refine_method;
 extern const char *const refine_method_names[REFINE_N_METHODS];
 /* The method named `name` ("coordinate", "es", "random", "es-split", "es-mirror",
- * "coordinate-sweep", "coordinate-jump"), or -1. */
+ * "coordinate-sweep", "coordinate-jump", "coordinate-zoom"), or -1. */
 int refine_method_parse(const char *name);
 /* The names, comma-separated, for messages (as datagen_preset_names). */
 const char *refine_method_list(void);
