@@ -267,6 +267,45 @@ static int movable_zooms(const search *S)
     return z;
 }
 
+/* S->y = S->x with slot i moved by delta: parameter i, or for i == n (the joint zoom)
+ * every movable zoom. Returns whether anything moved (not when at a bound). */
+static int step_proposal(search *S, int i, double delta)
+{
+    const refine_space *s = S->s;
+    memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
+    int changed = 0;
+    for (int j = 0; j < S->n_movable; j++) {
+        int k = S->movable[j];
+        if (i == s->n ? s->kind[k] == REFINE_ZOOM : k == i) {
+            S->y[k] = moved(s, k, S->x[k], delta);
+            changed |= S->y[k] != S->x[k];
+        }
+    }
+    return changed;
+}
+
+/* Slot i by +-step[i], the direction that last helped first, then the other: a success
+ * grows the step 1.5x (at most 0.5) and keeps its direction; two failures halve it. */
+static int step_both_ways(search *S, int i, double *step, signed char *dir)
+{
+    int d = dir[i] ? dir[i] : (pipeline_splitmix64(&S->rng) & 1 ? 1 : -1);
+    for (int attempt = 0; attempt < 2 && S->r->evals < S->o->budget; attempt++, d = -d) {
+        if (!step_proposal(S, i, d * step[i]))
+            continue; /* at a bound: only the other way moves */
+        int rc = try_proposal(S);
+        if (rc < 0)
+            return -1;
+        if (rc) {
+            dir[i] = (signed char)d;
+            step[i] = fmin(step[i] * 1.5, 0.5);
+            return 0;
+        }
+    }
+    dir[i] = 0;
+    step[i] = fmax(step[i] * 0.5, S->o->min_step);
+    return 0;
+}
+
 /* tried: NULL draws each parameter with replacement (REFINE_COORDINATE); else n + 1 flags,
  * all clear, for sweeps without replacement (REFINE_COORDINATE_SWEEP). jumps: a circular
  * value's visit is a uniform draw one time in two (REFINE_COORDINATE_JUMP). zoom: the
@@ -279,64 +318,17 @@ static int coordinate_search(search *S, double *step, signed char *dir, uint8_t 
     while (S->r->evals < S->o->budget && S->n_movable > 0) {
         int i = tried ? next_in_sweep(S, tried, zoom && movable_zooms(S) >= 2)
                       : S->movable[pipeline_splitmix64(&S->rng) % (uint64_t)S->n_movable];
-        memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
-        if (i == s->n) {
-            /* The joint zoom: every movable zoom by the same step, both ways. */
-            int d = dir[i] ? dir[i] : (pipeline_splitmix64(&S->rng) & 1 ? 1 : -1), kept = 0;
-            for (int attempt = 0; attempt < 2 && S->r->evals < S->o->budget; attempt++, d = -d) {
-                int changed = 0;
-                for (int j = 0; j < S->n_movable; j++) {
-                    int k = S->movable[j];
-                    if (s->kind[k] == REFINE_ZOOM) {
-                        S->y[k] = moved(s, k, S->x[k], d * step[i]);
-                        changed |= S->y[k] != S->x[k];
-                    }
-                }
-                if (!changed)
-                    continue;
-                int rc = try_proposal(S);
-                if (rc < 0)
-                    return -1;
-                if (rc) {
-                    kept = 1;
-                    dir[i] = (signed char)d;
-                    step[i] = fmin(step[i] * 1.5, 0.5);
-                    break;
-                }
-                memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
-            }
-            if (!kept) {
-                dir[i] = 0;
-                step[i] = fmax(step[i] * 0.5, S->o->min_step);
-            }
-            continue;
-        }
-        int jump = jumps && s->kind[i] == REFINE_CIRCULAR && (pipeline_splitmix64(&S->rng) & 1);
-        if (s->kind[i] == REFINE_SELECTOR || jump) {
+        int jump = i < s->n && jumps && s->kind[i] == REFINE_CIRCULAR &&
+                   (pipeline_splitmix64(&S->rng) & 1);
+        if (i < s->n && (s->kind[i] == REFINE_SELECTOR || jump)) {
+            memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
             S->y[i] = jump ? (float)uniform01(&S->rng) : other_choice(s, i, S->x[i], &S->rng);
             if (try_proposal(S) < 0)
                 return -1;
             continue;
         }
-        int d = dir[i] ? dir[i] : (pipeline_splitmix64(&S->rng) & 1 ? 1 : -1), kept = 0;
-        for (int attempt = 0; attempt < 2 && S->r->evals < S->o->budget; attempt++, d = -d) {
-            S->y[i] = moved(s, i, S->x[i], d * step[i]);
-            if (S->y[i] == S->x[i])
-                continue; /* at a bound: only the other way moves */
-            int rc = try_proposal(S);
-            if (rc < 0)
-                return -1;
-            if (rc) {
-                kept = 1;
-                dir[i] = (signed char)d;
-                step[i] = fmin(step[i] * 1.5, 0.5);
-                break;
-            }
-        }
-        if (!kept) {
-            dir[i] = 0;
-            step[i] = fmax(step[i] * 0.5, S->o->min_step);
-        }
+        if (step_both_ways(S, i, step, dir))
+            return -1;
     }
     return 0;
 }
