@@ -113,7 +113,19 @@ if [ -z "$quick" ]; then
     awk -F, '$3 ~ /refine/ && $4 == "mobilenetv2" && $8 != 4 { print; bad = 1 } END { exit bad }' \
         "$tmp/rd/inputs.csv"
     check "a datagen search spends --refine renders" 0 $?
+    # The loss options are predict's: only the -refine rows depend on them, and the
+    # report names them
+    "$imsynth" evaluate $ev --colour-phase 2 --colour-weight 0 -o "$tmp/rc" > /dev/null 2>&1
+    check "evaluate, --colour-phase 2 --colour-weight 0" 0 $?
+    grep -v -e '-refine,' "$tmp/rc/inputs.csv" > "$tmp/rc.rest"
+    cmp -s "$tmp/rc.rest" "$tmp/r2.rest"; check "only the -refine rows depend on the loss options" 0 $?
+    grep -q '"colour_phase":[[:space:]]*2' "$tmp/rc/report.json" &&
+        grep -q '"colour_weight":[[:space:]]*0' "$tmp/rc/report.json"
+    check "report.json names the loss options" 0 $?
 fi
+"$imsynth" evaluate $ev --colour-weight -1 -o "$tmp/rw" 2> "$tmp/err"
+check "bad --colour-weight" 2 $?
+expect_stderr "message names the option" "colour-weight"
 
 # Errors: clear, naming the culprit, and no report folder (nor temporary) left.
 "$imsynth" evaluate --model "$tmp/no-model" --test "$tmp/test.sqlite" -o "$tmp/rx" 2> "$tmp/err"
