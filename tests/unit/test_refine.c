@@ -4,7 +4,9 @@
  * right choice makes another value matter, a fixed parameter and an inactive one. Every
  * method: the budget is the number of loss calls, the curve never rises, fixed and inactive
  * parameters keep their values, the same seed gives the same bytes; coordinate search and
- * the ES get most of the way to the optimum, better than random draws do.
+ * the ES get most of the way to the optimum, better than random draws do. Then each
+ * variant's promise on a loss made for it (sweeps, jumps, joint zoom, split, mirror) and
+ * the colour phase's weighing of the loss's two terms.
  */
 #include <math.h>
 #include <setjmp.h>
