@@ -67,7 +67,9 @@
  *
  * Invariants: the loss callback is called at most o->budget times; parameters of kind REFINE_FIXED and inactive ones keep
  * their starting values; curve[i] is the best loss after i + 1 evaluations under evaluation
- * i's weight (non-increasing, but where the weight changes).
+ * i's weight (non-increasing, but where the weight changes); best_loss <= start_loss, both
+ * under the final weight (at the phase's end the search goes back to the start if the
+ * phase's point is worse under it).
  */
 #include <assert.h>
 #include <math.h>
@@ -181,6 +183,8 @@ typedef struct search {
     int n_movable;
     double gx, cx; /* x's loss terms */
     double fx;     /* x's loss under the weight of the evaluation in hand */
+    float *x0;     /* the start, and its terms: what the colour phase must not leave worse */
+    double g0, c0;
     refine_result *r;
     uint64_t rng;
     char *err;
@@ -202,15 +206,35 @@ static double colour_weight_at(const refine_options *o, int eval)
     return eval < o->colour_phase ? o->colour_phase_weight : o->colour_weight;
 }
 
+/* Under the final weight, the point the colour phase reached may be worse than the start
+ * (it was better under the phase's weight): then the search goes on from the start, so that
+ * the result is never worse than the start under the loss the caller compares. 0, or -1
+ * (the active callback's error). */
+static int back_to_start_if_better(search *S)
+{
+    double w = S->o->colour_weight;
+    if (!(pipeline_refine_loss(S->g0, S->c0, w) < pipeline_refine_loss(S->gx, S->cx, w)))
+        return 0;
+    memcpy(S->x, S->x0, (size_t)S->s->n * sizeof(float));
+    S->gx = S->g0;
+    S->cx = S->c0;
+    if (S->active(S->ctx, S->x, S->act, S->err, S->errlen))
+        return -1;
+    update_movable(S);
+    return 0;
+}
+
 /* Evaluates S->y; keeps it when better. Returns 1 kept, 0 not, -1 error. x's loss is
  * re-weighed from its terms, so a move of the weight (the colour phase ending) costs no
  * render. */
 static int try_proposal(search *S)
 {
     double gy, cy;
+    refine_result *r = S->r;
+    if (r->evals == S->o->colour_phase && back_to_start_if_better(S))
+        return -1;
     if (S->loss(S->ctx, S->y, &gy, &cy, S->err, S->errlen))
         return -1;
-    refine_result *r = S->r;
     double w = colour_weight_at(S->o, r->evals);
     double fy = pipeline_refine_loss(gy, cy, w);
     S->fx = pipeline_refine_loss(S->gx, S->cx, w);
@@ -463,6 +487,7 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     S.rng = o->seed ^ 0x726566696e652121ull; /* "refine!!" */
     S.x = malloc(n * sizeof(float));
     S.y = malloc(n * sizeof(float));
+    S.x0 = malloc(n * sizeof(float));
     S.act = malloc(n);
     S.movable = malloc(n * sizeof(int));
     double *step = malloc((n + 1) * sizeof(double)); /* [n]: the joint zoom's */
@@ -470,7 +495,7 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     uint8_t *tried = calloc(n + 1, 1); /* the sweeps' (coordinate-sweep, -jump, -zoom) */
     r->curve = malloc((size_t)o->budget * sizeof(double));
     int rc = -1;
-    if (!S.x || !S.y || !S.act || !S.movable || !step || !dir || !tried || !r->curve) {
+    if (!S.x || !S.y || !S.x0 || !S.act || !S.movable || !step || !dir || !tried || !r->curve) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -480,6 +505,9 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     /* The start is the first evaluation: the curve begins where the search does. */
     if (loss(ctx, S.x, &S.gx, &S.cx, err, errlen) || active(ctx, S.x, S.act, err, errlen))
         goto done;
+    memcpy(S.x0, S.x, n * sizeof(float));
+    S.g0 = S.gx;
+    S.c0 = S.cx;
     S.fx = pipeline_refine_loss(S.gx, S.cx, colour_weight_at(o, 0));
     r->start_loss = pipeline_refine_loss(S.gx, S.cx, o->colour_weight);
     r->curve[0] = S.fx;
@@ -512,10 +540,14 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
     for (int i = 1; i < r->evals && i < o->budget; i++)
         assert(r->curve[i] <= r->curve[i - 1] || isnan(r->curve[i - 1]) ||
                colour_weight_at(o, i) != colour_weight_at(o, i - 1));
+    /* A phase that took the whole budget never reached its end's check. */
+    if (o->colour_phase >= r->evals && back_to_start_if_better(&S))
+        goto done;
     memcpy(params, S.x, n * sizeof(float));
     /* The result's loss under the final weight, even when the colour phase took the whole
-     * budget: what a caller compares with other losses. */
+     * budget: what a caller compares with other losses (never above start_loss). */
     r->best_loss = pipeline_refine_loss(S.gx, S.cx, o->colour_weight);
+    assert(r->best_loss <= r->start_loss || isnan(r->start_loss));
     rc = 0;
 done:
     if (rc) {
@@ -524,6 +556,7 @@ done:
     }
     free(S.x);
     free(S.y);
+    free(S.x0);
     free(S.act);
     free(S.movable);
     free(step);

@@ -608,6 +608,29 @@ static void test_colour_phase(void **state)
         }
         refine_result_free(&r);
     }
+    /* From the final weight's optimum the phase can only lead away: under weight 4 its point
+     * is worse than the start, so at its end (or at the budget's, when it takes all) the
+     * search goes back to the start; the result is never worse than the start. */
+    for (int k = 1; k < 3; k++) {
+        refine_options o;
+        refine_options_default(&o);
+        o.budget = 120;
+        o.colour_phase = phases[k];
+        float x[1] = {0.68f};
+        int calls = 0;
+        refine_result r;
+        char err[64];
+        assert_int_equal(refine_search(&vs, &o, two_terms, hue_active, &calls, x, &r, err,
+                                       sizeof err), 0);
+        assert_int_equal(calls, 120);
+        printf("# colour phase %3d from 0.68: x %.4f, loss %.6f (start %.6f)\n", phases[k],
+               (double)x[0], r.best_loss, r.start_loss);
+        assert_true(r.best_loss <= r.start_loss);
+        assert_true(fabs(x[0] - 0.68) < 0.01);
+        if (k == 2)
+            assert_true(x[0] == 0.68f); /* the start itself */
+        refine_result_free(&r);
+    }
 }
 
 /* refine_method_list is refine_method_names joined. */
