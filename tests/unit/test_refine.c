@@ -566,30 +566,36 @@ static double two_terms_at(double x, double w)
     return (x - 0.2) * (x - 0.2) + w * (x - 0.8) * (x - 0.8);
 }
 
-static void test_colour_phase(void **state)
+/* 120 evaluations of two_terms from x[0] with a colour phase of `phase` evaluations at the
+ * default weights. A change of weight re-weighs the best's terms: no evaluation more. */
+static void phase_search(int phase, float *x, refine_result *r)
 {
-    (void)state;
     static const refine_kind value_kind[1] = {REFINE_VALUE};
     static const int no_choices[1] = {0};
     const refine_space vs = {.n = 1, .kind = value_kind, .choices = no_choices};
+    refine_options o;
+    refine_options_default(&o);
+    o.budget = 120;
+    o.colour_phase = phase;
+    assert_true(o.colour_weight == PIPELINE_COLOUR_WEIGHT);
+    assert_true(o.colour_phase_weight == PIPELINE_COLOUR_PHASE_WEIGHT);
+    int calls = 0;
+    char err[64];
+    assert_int_equal(refine_search(&vs, &o, two_terms, hue_active, &calls, x, r, err, sizeof err),
+                     0);
+    assert_int_equal(calls, 120);
+}
+
+static void test_colour_phase(void **state)
+{
+    (void)state;
     /* phase: none, half the budget, all of it. */
     const int phases[3] = {0, 60, 120};
     const double optima[3] = {0.68, 0.68, 0.2 + 0.6 * 12.0 / 13.0};
     for (int k = 0; k < 3; k++) {
-        refine_options o;
-        refine_options_default(&o);
-        o.budget = 120;
-        o.colour_phase = phases[k];
-        assert_true(o.colour_weight == PIPELINE_COLOUR_WEIGHT);
-        assert_true(o.colour_phase_weight == PIPELINE_COLOUR_PHASE_WEIGHT);
         float x[1] = {0.3f};
-        int calls = 0;
         refine_result r;
-        char err[64];
-        assert_int_equal(refine_search(&vs, &o, two_terms, hue_active, &calls, x, &r, err,
-                                       sizeof err), 0);
-        /* A change of weight re-weighs the best's terms: no evaluation more. */
-        assert_int_equal(calls, 120);
+        phase_search(phases[k], x, &r);
         printf("# colour phase %3d: x %.4f (optimum %.4f)\n", phases[k], (double)x[0], optima[k]);
         assert_true(fabs(x[0] - optima[k]) < 0.01);
         /* start and best under the final weight; the curve under each evaluation's. */
@@ -612,17 +618,9 @@ static void test_colour_phase(void **state)
      * is worse than the start, so at its end (or at the budget's, when it takes all) the
      * search goes back to the start; the result is never worse than the start. */
     for (int k = 1; k < 3; k++) {
-        refine_options o;
-        refine_options_default(&o);
-        o.budget = 120;
-        o.colour_phase = phases[k];
         float x[1] = {0.68f};
-        int calls = 0;
         refine_result r;
-        char err[64];
-        assert_int_equal(refine_search(&vs, &o, two_terms, hue_active, &calls, x, &r, err,
-                                       sizeof err), 0);
-        assert_int_equal(calls, 120);
+        phase_search(phases[k], x, &r);
         printf("# colour phase %3d from 0.68: x %.4f, loss %.6f (start %.6f)\n", phases[k],
                (double)x[0], r.best_loss, r.start_loss);
         assert_true(r.best_loss <= r.start_loss);
