@@ -425,7 +425,12 @@ static int evaluate_input(worker *w, const input *in, result *r)
     float *buf = malloc((size_t)ask * np * sizeof(float));
     long long ids[256];
     r->chosen = malloc(N_METHODS * np * sizeof(float));
-    int rc = buf && r->chosen ? 0 : pipeline_error(err, errlen, "out of memory");
+    /* A -topk method's best o->refine.starts picks, nearest first: its -refine row races
+     * them as predict does (refine_race). */
+    int n_starts = o->refine.starts < 1 ? 1 : o->refine.starts > top_k ? top_k : o->refine.starts;
+    float *ranked = malloc(N_METHODS * (size_t)n_starts * np * sizeof(float));
+    int n_ranked[N_METHODS] = {0};
+    int rc = buf && r->chosen && ranked ? 0 : pipeline_error(err, errlen, "out of memory");
 
     /* The scene: a synthetic row's own view; a hand-made input's plain or flash scene. */
     if (rc == 0 && (in->set == SET_SYNTHETIC || in->set == SET_AUGMENTED)) {
@@ -454,12 +459,13 @@ static int evaluate_input(worker *w, const input *in, result *r)
     for (int m = 0; m < N_METHODS && rc == 0; m++) {
         if (methods[m].refines) {
             int from = method_index(methods[m].refines);
-            memcpy(buf, r->chosen + (size_t)from * np, np * sizeof(float));
+            assert(n_ranked[from] >= 1);
             refine_options ro = o->refine;
             ro.seed = iw.seed;
             refine_result rr;
-            if (refine_search(&sh->space, &ro, refine_loss_cb, refine_active_cb, &iw, buf, &rr,
-                              err, errlen)) {
+            if (refine_race(&sh->space, &ro, refine_loss_cb, refine_active_cb, &iw,
+                            ranked + (size_t)from * n_starts * np, n_ranked[from], buf, &rr,
+                            err, errlen)) {
                 rc = -1;
                 break;
             }
@@ -498,8 +504,8 @@ static int evaluate_input(worker *w, const input *in, result *r)
         }
         /* The pick: the first, or the candidate whose render is nearest the input under the
          * training descriptor (ties: the earlier, i.e. the likelier or nearer). */
-        int best = 0;
-        double best_d = INFINITY;
+        int best = 0, order[256] = {0};
+        double dist[256];
         for (int j = 0; j < n && methods[m].topk; j++) {
             candidate *c = candidate_get(&iw, buf + (size_t)j * np, err, errlen);
             if (!c || describe(w, sh->train, &c->img, &c->desc[sh->train], err, errlen)) {
@@ -508,13 +514,21 @@ static int evaluate_input(worker *w, const input *in, result *r)
             }
             double d = evaluate_gram_distance(iw.in_desc[sh->train], c->desc[sh->train],
                                               w->offsets[sh->train], w->n_layers[sh->train]);
-            if (d < best_d) {
-                best_d = d;
-                best = j;
-            }
+            if (isnan(d))
+                d = INFINITY;
+            int b = j; /* order[0..j]: by distance, ties after the earlier */
+            for (; b > 0 && d < dist[order[b - 1]]; b--)
+                order[b] = order[b - 1];
+            order[b] = j;
+            dist[j] = d;
         }
         if (rc)
             break;
+        best = order[0];
+        n_ranked[m] = methods[m].topk && n < n_starts ? n : methods[m].topk ? n_starts : 1;
+        for (int j = 0; j < n_ranked[m]; j++)
+            memcpy(ranked + ((size_t)m * n_starts + j) * np, buf + (size_t)order[j] * np,
+                   np * sizeof(float));
         candidate *c = candidate_get(&iw, buf + (size_t)best * np, err, errlen);
         if (!c || distances(&iw, &c->img, c->desc, r->dist[m], err, errlen)) {
             rc = -1;
@@ -569,6 +583,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
     free(iw.cands);
     render_scene_free(own);
     free(buf);
+    free(ranked);
     r->seconds = pipeline_now() - t0;
     if (rc) {
         /* Prefixed with the input's name, the message cut to fit. */
@@ -1058,6 +1073,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);
     cJSON_AddNumberToObject(cmd, "colour_phase", o->refine.colour_phase);
     cJSON_AddNumberToObject(cmd, "colour_phase_weight", o->refine.colour_phase_weight);
+    cJSON_AddNumberToObject(cmd, "starts", o->refine.starts);
     cJSON_AddNumberToObject(cmd, "limit", (double)o->limit);
     cJSON_AddNumberToObject(cmd, "seed", (double)o->seed);
     cJSON_AddNumberToObject(cmd, "blender", o->blender);

@@ -476,10 +476,11 @@ typedef struct refine_options {
     double colour_weight;       /* w after the colour phase (PIPELINE_COLOUR_WEIGHT) */
     int colour_phase;           /* evaluations weighted colour_phase_weight (0: none) */
     double colour_phase_weight; /* w during them */
+    int starts; /* starts raced (refine_race; >= 1): the caller's best few candidates */
 } refine_options;
 /* coordinate-sweep (the measured best at predict's budget: docs/predict.md), budget 48,
  * step 0.25, min_step 1/128, seed 1, colour_weight PIPELINE_COLOUR_WEIGHT, no colour phase
- * (its weight PIPELINE_COLOUR_PHASE_WEIGHT when one is asked for). */
+ * (its weight PIPELINE_COLOUR_PHASE_WEIGHT when one is asked for), one start. */
 void refine_options_default(refine_options *o);
 
 /* The search space of a super-shader's parameters, from their names: "Mult N" selectors,
@@ -507,8 +508,11 @@ typedef struct refine_result {
     double *curve; /* budget entries, the first `evals`: best loss after each evaluation,
                     * under that evaluation's weight */
     int evals, accepted;
-    int start_movable; /* parameters the search could move at the start */
-    double start_loss, best_loss; /* both under colour_weight, the final weight */
+    int start_movable; /* parameters the search could move at the start (the winner's) */
+    double start_loss, best_loss; /* both under colour_weight, the final weight; start_loss
+                                   * is the best of the starts' */
+    int winner;       /* refine_race: the start whose search gave the result (0: one start) */
+    int winner_evals; /* the evaluations spent on the winner's search */
 } refine_result;
 
 /* Searches from params (in: the start, every value in [0, 1]; out: the best found) with
@@ -517,6 +521,16 @@ typedef struct refine_result {
 int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
                   refine_active_fn active, void *ctx, float *params, refine_result *r,
                   char *err, size_t errlen);
+/* Several starts (starts: n_starts x s->n, the likeliest first) raced by successive halving
+ * within o->budget evaluations in all: every start is searched for an equal share, the
+ * better half (by loss under colour_weight) goes on with the next share, and so on until
+ * one is left, which gets the last share (pipeline/refine.c says why). n_starts 1 is
+ * refine_search, evaluation for evaluation. Starts beyond the budget are not used. params
+ * (out, s->n): the best found; r->winner says whose search found it, r->curve is the best
+ * loss over all the searches after each evaluation. 0, or -1 with a message. */
+int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                refine_active_fn active, void *ctx, const float *starts, int n_starts,
+                float *params, refine_result *r, char *err, size_t errlen);
 void refine_result_free(refine_result *r);
 
 /* ---------------------------------------------------------------- evaluation ------- */

@@ -18,6 +18,7 @@
  * Invariant: OUTDIR is written as OUTDIR.tmp.PID and renamed whole; an OUTDIR that exists is
  * replaced only when it is an earlier predict's output (its report.json says so).
  */
+#include <assert.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -422,7 +423,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     candidate *cands = NULL;
     double *prob = NULL, *ndist = NULL;
     size_t *nindex = NULL;
-    int *keep = NULL;
+    int *keep = NULL, *order = NULL;
+    float *starts = NULL;
     refine_kind *kind = NULL;
     int *choices = NULL;
     refine_result rr = {0};
@@ -583,11 +585,27 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     int renders_candidates = sc.renders;
     double render_candidates_s = sc.render_s, describe_candidates_s = sc.describe_s;
 
-    /* Refine the winner in its scene. */
-    memcpy(best, cand_params + (size_t)best_k * np, (size_t)np * sizeof(float));
+    /* Refine the winner in its scene, or race the --starts best there (refine_race). */
+    int n_starts = 0;
+    order = malloc((size_t)n_keep * sizeof *order);
     kind = malloc((size_t)np * sizeof *kind);
     choices = malloc((size_t)np * sizeof *choices);
-    if (!kind || !choices) {
+    if (order) {
+        for (int j = 0; j < n_keep; j++) /* by loss in the winner's scene; ties: earlier */
+            if (isfinite(cands[keep[j]].loss[best_scene])) {
+                int b = n_starts++;
+                for (; b > 0 && cands[keep[j]].loss[best_scene] <
+                                    cands[order[b - 1]].loss[best_scene];
+                     b--)
+                    order[b] = order[b - 1];
+                order[b] = keep[j];
+            }
+        assert(n_starts >= 1 && order[0] == best_k);
+        if (n_starts > o->refine.starts)
+            n_starts = o->refine.starts;
+        starts = malloc((size_t)n_starts * (size_t)np * sizeof(float));
+    }
+    if (!order || !kind || !choices || !starts) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -599,9 +617,13 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
      * evaluation, which sets the best the progress line shows. */
     sc.preset = o->refine_preset;
     refine_ctx rctx = {.sc = &sc, .budget = o->refine.budget, .best = HUGE_VAL};
-    if (refine_search(&space, &o->refine, refine_loss_cb, refine_active_cb, &rctx, best, &rr, err,
-                      errlen))
+    for (int j = 0; j < n_starts; j++)
+        memcpy(starts + (size_t)j * np, cand_params + (size_t)order[j] * np,
+               (size_t)np * sizeof(float));
+    if (refine_race(&space, &o->refine, refine_loss_cb, refine_active_cb, &rctx, starts,
+                    n_starts, best, &rr, err, errlen))
         goto done;
+    int won_k = order[rr.winner];
     t_refine = pipeline_now() - t_stage;
     t_stage = pipeline_now();
     int renders_refine = sc.renders - renders_candidates;
@@ -703,14 +725,20 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
             cJSON_AddItemToObject(sj, "colour", num(c->c[s]));
             cJSON_AddItemToObject(sj, "loss", num(c->loss[s]));
         }
-        cJSON_AddBoolToObject(cj, "chosen", keep[j] == best_k);
+        cJSON_AddBoolToObject(cj, "chosen", keep[j] == won_k);
+        int raced = 0;
+        for (int k = 0; k < n_starts; k++)
+            raced |= order[k] == keep[j];
+        cJSON_AddBoolToObject(cj, "refined", raced);
         cJSON_AddItemToArray(cl, cj);
     }
     cJSON_AddNumberToObject(report, "candidates_merged", n_cands - n_keep);
     cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
     cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(rj, "budget", o->refine.budget);
+    cJSON_AddNumberToObject(rj, "starts", n_starts);
     cJSON_AddNumberToObject(rj, "evaluations", rr.evals);
+    cJSON_AddNumberToObject(rj, "winner_evaluations", rr.winner_evals);
     cJSON_AddNumberToObject(rj, "accepted", rr.accepted);
     cJSON_AddNumberToObject(rj, "movable_parameters", rr.start_movable);
     cJSON_AddItemToObject(rj, "start_loss", num(rr.start_loss));
@@ -794,6 +822,8 @@ done:
     free(nindex);
     free(ndist);
     free(keep);
+    free(order);
+    free(starts);
     free(best);
     free(sc.target_desc);
     free(sc.desc_buf);

@@ -111,6 +111,7 @@ void refine_options_default(refine_options *o)
     o->colour_weight = PIPELINE_COLOUR_WEIGHT;
     o->colour_phase = 0;
     o->colour_phase_weight = PIPELINE_COLOUR_PHASE_WEIGHT;
+    o->starts = 1;
 }
 
 /* "Noise A Scale" and its kin: a name that starts with "Noise " and ends with " Scale". */
@@ -174,6 +175,9 @@ static float other_choice(const refine_space *s, int i, float v, uint64_t *rng)
     return choice_value(r >= c ? r + 1 : r, n);
 }
 
+/* One search from one start. Its state lives here, not in the method's locals, so that
+ * refine_race can pause it at `limit` evaluations and resume it later with a larger one:
+ * run once to the budget, it is the single-start search draw for draw. */
 typedef struct search {
     const refine_space *s;
     const refine_options *o;
@@ -187,7 +191,16 @@ typedef struct search {
     double gx, cx; /* x's loss terms (its loss is weighed per evaluation: colour_weight_at) */
     float *x0;     /* the start, and its terms: what the colour phase must not leave worse */
     double g0, c0;
-    refine_result *r;
+    refine_result r; /* this search's own evaluations, accepted moves and curve */
+    int limit;       /* the evaluation count at which the search pauses (<= o->budget) */
+    /* The methods' state between pauses. */
+    double *step;       /* n + 1: coordinate steps ([n]: the joint zoom's); the ES's last draw */
+    signed char *dir;   /* n + 1: the direction that last helped (coordinate) */
+    uint8_t *tried;     /* n + 1: the sweep's flags (coordinate-sweep, -jump, -zoom) */
+    double sigma, sigma_zoom; /* the ES's */
+    int mirror_next;          /* es-mirror: the next proposal mirrors the last */
+    int *start_movable;       /* random search: the start's movable set */
+    int n_start;
     uint64_t rng;
     char *err;
     size_t errlen;
@@ -232,7 +245,7 @@ static int back_to_start_if_better(search *S)
 static int try_proposal(search *S)
 {
     double gy, cy;
-    refine_result *r = S->r;
+    refine_result *r = &S->r;
     if (r->evals == S->o->colour_phase && back_to_start_if_better(S))
         return -1;
     if (S->loss(S->ctx, S->y, &gy, &cy, S->err, S->errlen))
@@ -250,8 +263,8 @@ static int try_proposal(search *S)
             return -1;
         update_movable(S);
     }
-    if (r->curve && r->evals < S->o->budget)
-        r->curve[r->evals] = fx;
+    assert(r->evals < S->o->budget);
+    r->curve[r->evals] = fx;
     r->evals++;
     return better;
 }
@@ -310,11 +323,16 @@ static int step_proposal(search *S, int i, double delta)
 }
 
 /* Slot i by +-step[i], the direction that last helped first, then the other: a success
- * grows the step 1.5x (at most 0.5) and keeps its direction; two failures halve it. */
-static int step_both_ways(search *S, int i, double *step, signed char *dir)
+ * grows the step 1.5x (at most 0.5) and keeps its direction; two failures halve it. A pause
+ * between the two leaves the step as it was. */
+static int step_both_ways(search *S, int i)
 {
+    double *step = S->step;
+    signed char *dir = S->dir;
     int d = dir[i] ? dir[i] : (pipeline_splitmix64(&S->rng) & 1 ? 1 : -1);
-    for (int attempt = 0; attempt < 2 && S->r->evals < S->o->budget; attempt++, d = -d) {
+    for (int attempt = 0; attempt < 2; attempt++, d = -d) {
+        if (S->r.evals >= S->limit)
+            return 0;
         if (!step_proposal(S, i, d * step[i]))
             continue; /* at a bound: only the other way moves */
         int rc = try_proposal(S);
@@ -331,17 +349,15 @@ static int step_both_ways(search *S, int i, double *step, signed char *dir)
     return 0;
 }
 
-/* tried: NULL draws each parameter with replacement (REFINE_COORDINATE); else n + 1 flags,
- * all clear, for sweeps without replacement (REFINE_COORDINATE_SWEEP). jumps: a circular
- * value's visit is a uniform draw one time in two (REFINE_COORDINATE_JUMP). zoom: the
- * sweep also moves every movable zoom at once, by one step of its own (step[n], dir[n]),
- * when there are two or more (REFINE_COORDINATE_ZOOM). */
-static int coordinate_search(search *S, double *step, signed char *dir, uint8_t *tried,
-                             int jumps, int zoom)
+/* sweep: draw parameters without replacement (REFINE_COORDINATE_SWEEP; S->tried), else with
+ * (REFINE_COORDINATE). jumps: a circular value's visit is a uniform draw one time in two
+ * (REFINE_COORDINATE_JUMP). zoom: the sweep also moves every movable zoom at once, by one
+ * step of its own (step[n], dir[n]), when there are two or more (REFINE_COORDINATE_ZOOM). */
+static int coordinate_search(search *S, int sweep, int jumps, int zoom)
 {
     const refine_space *s = S->s;
-    while (S->r->evals < S->o->budget && S->n_movable > 0) {
-        int i = tried ? next_in_sweep(S, tried, zoom && movable_zooms(S) >= 2)
+    while (S->r.evals < S->limit && S->n_movable > 0) {
+        int i = sweep ? next_in_sweep(S, S->tried, zoom && movable_zooms(S) >= 2)
                       : S->movable[pipeline_splitmix64(&S->rng) % (uint64_t)S->n_movable];
         int jump = i < s->n && jumps && s->kind[i] == REFINE_CIRCULAR &&
                    (pipeline_splitmix64(&S->rng) & 1);
@@ -352,7 +368,7 @@ static int coordinate_search(search *S, double *step, signed char *dir, uint8_t 
                 return -1;
             continue;
         }
-        if (step_both_ways(S, i, step, dir))
+        if (step_both_ways(S, i))
             return -1;
     }
     return 0;
@@ -366,24 +382,24 @@ enum { ZOOM_EVERY = 4 };
  * with their own sigma, and never with the other values. mirror: a value move that failed
  * and changed no selector is followed by its mirror image x - d (Brockhoff et al. 2010,
  * mirrored sampling with sequential selection): where the loss is nearly linear over the
- * step, x + d ascending means x - d descends. delta holds d (n). With split = mirror = 0 this is es, draw for draw as before the variants existed. */
-static int es_core(search *S, int split, int mirror, double *delta)
+ * step, x + d ascending means x - d descends. S->step holds d (n). With split = mirror = 0
+ * this is es, draw for draw as before the variants existed. */
+static int es_core(search *S, int split, int mirror)
 {
     const refine_space *s = S->s;
-    double sigma = S->o->step, sigma_zoom = S->o->step;
-    int mirror_next = 0;
-    while (S->r->evals < S->o->budget && S->n_movable > 0) {
+    double *delta = S->step;
+    while (S->r.evals < S->limit && S->n_movable > 0) {
         int n_zoom = 0, n_other = S->n_movable;
         if (split) {
             n_other = 0;
             for (int j = 0; j < S->n_movable; j++)
                 s->kind[S->movable[j]] == REFINE_ZOOM ? n_zoom++ : n_other++;
         }
-        int zoom = !mirror_next && n_zoom > 0 &&
+        int zoom = !S->mirror_next && n_zoom > 0 &&
                    (n_other == 0 || pipeline_splitmix64(&S->rng) % ZOOM_EVERY == 0);
         memcpy(S->y, S->x, (size_t)s->n * sizeof(float));
         int changed = 0, flipped = 0;
-        if (mirror_next) {
+        if (S->mirror_next) {
             for (int j = 0; j < S->n_movable; j++) {
                 int i = S->movable[j];
                 if (s->kind[i] != REFINE_SELECTOR && !(split && s->kind[i] == REFINE_ZOOM)) {
@@ -396,7 +412,7 @@ static int es_core(search *S, int split, int mirror, double *delta)
             for (int j = 0; j < S->n_movable; j++) {
                 int i = S->movable[j];
                 if (s->kind[i] == REFINE_ZOOM && pick-- == 0) {
-                    S->y[i] = moved(s, i, S->x[i], sigma_zoom * gaussian(&S->rng));
+                    S->y[i] = moved(s, i, S->x[i], S->sigma_zoom * gaussian(&S->rng));
                     changed = S->y[i] != S->x[i];
                     break;
                 }
@@ -412,141 +428,262 @@ static int es_core(search *S, int split, int mirror, double *delta)
                         changed = flipped = 1;
                     }
                 } else {
-                    delta[i] = sigma * gaussian(&S->rng);
+                    delta[i] = S->sigma * gaussian(&S->rng);
                     S->y[i] = moved(s, i, S->x[i], delta[i]);
                     changed |= S->y[i] != S->x[i];
                 }
             }
         }
-        int was_mirror = mirror_next;
-        mirror_next = 0;
+        int was_mirror = S->mirror_next;
+        S->mirror_next = 0;
         if (!changed)
             continue;
         int rc = try_proposal(S);
         if (rc < 0)
             return -1;
         /* 1/5 rule: expected log-change zero at a success rate of 1/5; per kind of move. */
-        double *sg = zoom ? &sigma_zoom : &sigma;
+        double *sg = zoom ? &S->sigma_zoom : &S->sigma;
         *sg *= rc ? exp(0.8) : exp(-0.2);
         *sg = fmin(fmax(*sg, S->o->min_step), 0.5);
         /* A failed draw is mirrored once; the mirror's own failure is not. After a success
          * the active set may have changed, so nothing is mirrored. */
-        mirror_next = mirror && !rc && !zoom && !flipped && !was_mirror;
+        S->mirror_next = mirror && !rc && !zoom && !flipped && !was_mirror;
     }
     return 0;
 }
 
+/* Draws around the start's active set: a draw that changes a selector may make other
+ * parameters matter, but they keep the start's values, as the other methods' do. */
 static int random_search(search *S)
 {
     const refine_space *s = S->s;
-    /* Draws around the start's active set: a draw that changes a selector may make other
-     * parameters matter, but they keep the start's values, as the other methods' do. */
-    int n_start = S->n_movable, *start_movable = malloc((size_t)(n_start ? n_start : 1) * sizeof(int));
-    if (!start_movable)
-        return pipeline_error(S->err, S->errlen, "out of memory");
-    memcpy(start_movable, S->movable, (size_t)n_start * sizeof(int));
-    float *x0 = malloc((size_t)s->n * sizeof(float));
-    if (!x0) {
-        free(start_movable);
-        return pipeline_error(S->err, S->errlen, "out of memory");
-    }
-    memcpy(x0, S->x, (size_t)s->n * sizeof(float));
-    int rc = 0;
-    while (S->r->evals < S->o->budget && n_start > 0) {
-        memcpy(S->y, x0, (size_t)s->n * sizeof(float));
-        for (int j = 0; j < n_start; j++) {
-            int i = start_movable[j];
+    while (S->r.evals < S->limit && S->n_start > 0) {
+        memcpy(S->y, S->x0, (size_t)s->n * sizeof(float));
+        for (int j = 0; j < S->n_start; j++) {
+            int i = S->start_movable[j];
             S->y[i] = s->kind[i] == REFINE_SELECTOR
                           ? choice_value((int)(pipeline_splitmix64(&S->rng) % (uint64_t)s->choices[i]),
                                          s->choices[i])
                           : (float)uniform01(&S->rng);
         }
-        if ((rc = try_proposal(S)) < 0)
-            break;
-        rc = 0;
+        if (try_proposal(S) < 0)
+            return -1;
     }
-    free(start_movable);
-    free(x0);
-    return rc;
+    return 0;
 }
 
-int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
-                  refine_active_fn active, void *ctx, float *params, refine_result *r,
-                  char *err, size_t errlen)
+static void search_free(search *S)
 {
-    memset(r, 0, sizeof *r);
-    if (s->n <= 0 || o->budget < 1 || o->method < 0 || o->method >= REFINE_N_METHODS)
-        return pipeline_error(err, errlen, "refine: %d parameters, budget %d, method %d", s->n,
-                              o->budget, o->method);
-    for (int i = 0; i < s->n; i++)
-        if (!(params[i] >= 0.0f && params[i] <= 1.0f))
-            return pipeline_error(err, errlen, "refine: start parameter %d is %g, not in [0, 1]",
-                                  i, (double)params[i]);
+    free(S->x);
+    free(S->y);
+    free(S->x0);
+    free(S->act);
+    free(S->movable);
+    free(S->start_movable);
+    free(S->step);
+    free(S->dir);
+    free(S->tried);
+    free(S->r.curve);
+    memset(S, 0, sizeof *S);
+}
+
+/* Sets S up at `start` and evaluates it (the search's first evaluation: the curve begins
+ * where the search does). stream: 0 for refine_search's own random stream, k for the
+ * race's start k. 0, or -1 with a message (S freed). */
+static int search_begin(search *S, const refine_space *s, const refine_options *o,
+                        refine_loss_fn loss, refine_active_fn active, void *ctx,
+                        const float *start, uint64_t stream, char *err, size_t errlen)
+{
     size_t n = (size_t)s->n;
-    search S = {.s = s, .o = o, .loss = loss, .active = active, .ctx = ctx, .r = r,
-                .err = err, .errlen = errlen};
-    S.rng = o->seed ^ 0x726566696e652121ull; /* "refine!!" */
-    S.x = malloc(n * sizeof(float));
-    S.y = malloc(n * sizeof(float));
-    S.x0 = malloc(n * sizeof(float));
-    S.act = malloc(n);
-    S.movable = malloc(n * sizeof(int));
-    double *step = malloc((n + 1) * sizeof(double)); /* [n]: the joint zoom's */
-    signed char *dir = calloc(n + 1, 1);
-    uint8_t *tried = calloc(n + 1, 1); /* the sweeps' (coordinate-sweep, -jump, -zoom) */
-    r->curve = malloc((size_t)o->budget * sizeof(double));
-    int rc = -1;
-    if (!S.x || !S.y || !S.x0 || !S.act || !S.movable || !step || !dir || !tried || !r->curve) {
-        pipeline_error(err, errlen, "out of memory");
-        goto done;
+    *S = (search){.s = s, .o = o, .loss = loss, .active = active, .ctx = ctx, .err = err,
+                  .errlen = errlen, .sigma = o->step, .sigma_zoom = o->step};
+    S->rng = (o->seed ^ 0x726566696e652121ull) + stream * 0x9e3779b97f4a7c15ull; /* "refine!!" */
+    S->x = malloc(n * sizeof(float));
+    S->y = malloc(n * sizeof(float));
+    S->x0 = malloc(n * sizeof(float));
+    S->act = malloc(n);
+    S->movable = malloc(n * sizeof(int));
+    S->start_movable = malloc(n * sizeof(int));
+    S->step = malloc((n + 1) * sizeof(double));
+    S->dir = calloc(n + 1, 1);
+    S->tried = calloc(n + 1, 1);
+    S->r.curve = malloc((size_t)o->budget * sizeof(double));
+    if (!S->x || !S->y || !S->x0 || !S->act || !S->movable || !S->start_movable || !S->step ||
+        !S->dir || !S->tried || !S->r.curve) {
+        search_free(S);
+        return pipeline_error(err, errlen, "out of memory");
     }
     for (size_t i = 0; i <= n; i++)
-        step[i] = o->step;
-    memcpy(S.x, params, n * sizeof(float));
-    /* The start is the first evaluation: the curve begins where the search does. */
-    if (loss(ctx, S.x, &S.gx, &S.cx, err, errlen) || active(ctx, S.x, S.act, err, errlen))
-        goto done;
-    memcpy(S.x0, S.x, n * sizeof(float));
-    S.g0 = S.gx;
-    S.c0 = S.cx;
-    r->start_loss = pipeline_refine_loss(S.gx, S.cx, o->colour_weight);
-    r->curve[0] = pipeline_refine_loss(S.gx, S.cx, colour_weight_at(o, 0));
-    r->evals = 1;
-    update_movable(&S);
-    r->start_movable = S.n_movable;
+        S->step[i] = o->step;
+    memcpy(S->x, start, n * sizeof(float));
+    if (loss(ctx, S->x, &S->gx, &S->cx, err, errlen) || active(ctx, S->x, S->act, err, errlen)) {
+        search_free(S);
+        return -1;
+    }
+    memcpy(S->x0, S->x, n * sizeof(float));
+    S->g0 = S->gx;
+    S->c0 = S->cx;
+    S->r.start_loss = pipeline_refine_loss(S->gx, S->cx, o->colour_weight);
+    S->r.curve[0] = pipeline_refine_loss(S->gx, S->cx, colour_weight_at(o, 0));
+    S->r.evals = 1;
+    update_movable(S);
+    S->r.start_movable = S->n_movable;
+    memcpy(S->start_movable, S->movable, (size_t)S->n_movable * sizeof(int));
+    S->n_start = S->n_movable;
+    return 0;
+}
+
+/* Runs S's method until it has made `limit` evaluations (or can move nothing). */
+static int search_advance(search *S, int limit)
+{
+    const refine_options *o = S->o;
+    S->limit = limit < o->budget ? limit : o->budget;
     switch (o->method) {
     case REFINE_COORDINATE:
-        rc = coordinate_search(&S, step, dir, NULL, 0, 0);
-        break;
+        return coordinate_search(S, 0, 0, 0);
     case REFINE_COORDINATE_SWEEP:
     case REFINE_COORDINATE_JUMP:
     case REFINE_COORDINATE_ZOOM:
-        rc = coordinate_search(&S, step, dir, tried, o->method == REFINE_COORDINATE_JUMP,
-                               o->method == REFINE_COORDINATE_ZOOM);
-        break;
+        return coordinate_search(S, 1, o->method == REFINE_COORDINATE_JUMP,
+                                 o->method == REFINE_COORDINATE_ZOOM);
     case REFINE_ES:
     case REFINE_ES_SPLIT:
     case REFINE_ES_MIRROR:
-        /* step[] is coordinate search's; the ES keeps its last draw there. */
-        rc = es_core(&S, o->method == REFINE_ES_SPLIT, o->method == REFINE_ES_MIRROR, step);
-        break;
+        return es_core(S, o->method == REFINE_ES_SPLIT, o->method == REFINE_ES_MIRROR);
     default:
-        rc = random_search(&S);
-        break;
+        return random_search(S);
     }
-    if (rc)
-        goto done;
+}
+
+/* What S guarantees under the final weight if it stopped now: its point's loss, or its
+ * start's when the colour phase has left the point worse (search_end goes back to it). */
+static double search_loss(const search *S)
+{
+    double w = S->o->colour_weight;
+    return fmin(pipeline_refine_loss(S->gx, S->cx, w), pipeline_refine_loss(S->g0, S->c0, w));
+}
+
+/* Ends S: back to the start if the colour phase took every evaluation and left the point
+ * worse; r.best_loss is then the point's loss under the final weight, never above the
+ * start's. */
+static int search_end(search *S)
+{
+    const refine_options *o = S->o;
+    refine_result *r = &S->r;
     /* Non-increasing but where the weight changes. */
-    for (int i = 1; i < r->evals && i < o->budget; i++)
+    for (int i = 1; i < r->evals; i++)
         assert(r->curve[i] <= r->curve[i - 1] || isnan(r->curve[i - 1]) ||
                colour_weight_at(o, i) != colour_weight_at(o, i - 1));
     /* A phase that took the whole budget never reached its end's check. */
-    if (o->colour_phase >= r->evals && back_to_start_if_better(&S))
+    if (o->colour_phase >= r->evals && back_to_start_if_better(S))
+        return -1;
+    r->best_loss = pipeline_refine_loss(S->gx, S->cx, o->colour_weight);
+    assert(r->best_loss <= r->start_loss || isnan(r->start_loss));
+    return 0;
+}
+
+static int check_call(const refine_space *s, const refine_options *o, int n_starts,
+                      const float *starts, char *err, size_t errlen)
+{
+    if (s->n <= 0 || o->budget < 1 || o->method < 0 || o->method >= REFINE_N_METHODS ||
+        n_starts < 1)
+        return pipeline_error(err, errlen, "refine: %d parameters, budget %d, method %d, %d starts",
+                              s->n, o->budget, o->method, n_starts);
+    for (int k = 0; k < n_starts; k++)
+        for (int i = 0; i < s->n; i++)
+            if (!(starts[(size_t)k * s->n + i] >= 0.0f && starts[(size_t)k * s->n + i] <= 1.0f))
+                return pipeline_error(err, errlen,
+                                      "refine: start %d's parameter %d is %g, not in [0, 1]", k,
+                                      i, (double)starts[(size_t)k * s->n + i]);
+    return 0;
+}
+
+/*
+ * The race. The candidates' scores (one render each) rank the starts, but a start's
+ * score says little about where a search from it ends: the input's nearest sample in the
+ * catalogue may sit in a narrow basin while the third nearest sits in a wide one. So every
+ * start gets a share of the budget, and only the better half of the searches (by what they
+ * have reached) go on, with an equal share of the rest, until one is left: successive
+ * halving (Jamieson and Talwalkar 2016), with 1 + ceil(log2 K) rounds of equal budget for
+ * K starts. Evaluations a search could not spend (nothing movable) go to later rounds.
+ * The curve is the best over all searches, under the evaluation's weight.
+ */
+int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                refine_active_fn active, void *ctx, const float *starts, int n_starts,
+                float *params, refine_result *r, char *err, size_t errlen)
+{
+    memset(r, 0, sizeof *r);
+    if (check_call(s, o, n_starts, starts, err, errlen))
+        return -1;
+    int K = n_starts < o->budget ? n_starts : o->budget;
+    int rounds = 1;
+    while ((1 << (rounds - 1)) < K)
+        rounds++;
+    search *S = calloc((size_t)K, sizeof *S);
+    int *alive = malloc((size_t)K * sizeof *alive);
+    double *latest = malloc((size_t)K * sizeof *latest); /* each search's last curve value */
+    r->curve = malloc((size_t)o->budget * sizeof(double));
+    int rc = -1, started = 0, n_alive = K, spent = 0;
+    if (!S || !alive || !latest || !r->curve) {
+        pipeline_error(err, errlen, "out of memory");
         goto done;
-    memcpy(params, S.x, n * sizeof(float));
-    /* The result's loss under the final weight, even when the colour phase took the whole
-     * budget: what a caller compares with other losses (never above start_loss). */
-    r->best_loss = pipeline_refine_loss(S.gx, S.cx, o->colour_weight);
+    }
+    for (int k = 0; k < K; k++)
+        alive[k] = k;
+    for (int round = 0; round < rounds; round++) {
+        assert(round < rounds - 1 || n_alive == 1);
+        int share = round == rounds - 1 ? o->budget - spent
+                                        : (o->budget - spent) / (rounds - round) / n_alive;
+        for (int a = 0; a < n_alive; a++) {
+            int k = alive[a], from = 0;
+            if (k >= started) {
+                assert(k == started);
+                if (search_begin(&S[k], s, o, loss, active, ctx, starts + (size_t)k * s->n,
+                                 (uint64_t)k, err, errlen))
+                    goto done;
+                started++;
+            } else
+                from = S[k].r.evals;
+            /* A new search has made its start's evaluation, which its share may not hold
+             * (K <= budget keeps the total within it). */
+            if (search_advance(&S[k], from + share > 1 ? from + share : 1))
+                goto done;
+            for (int i = from; i < S[k].r.evals; i++) {
+                latest[k] = S[k].r.curve[i];
+                double b = latest[k];
+                for (int j = 0; j < started; j++)
+                    b = fmin(b, latest[j]);
+                assert(spent < o->budget);
+                r->curve[spent++] = b;
+            }
+        }
+        /* The better half goes on (stable: ties keep the likelier start). */
+        for (int a = 1; a < n_alive; a++)
+            for (int b = a; b > 0 && search_loss(&S[alive[b]]) < search_loss(&S[alive[b - 1]]);
+                 b--) {
+                int t = alive[b];
+                alive[b] = alive[b - 1];
+                alive[b - 1] = t;
+            }
+        n_alive = (n_alive + 1) / 2;
+    }
+    /* The result: the best search's point, under the final weight. */
+    int w = 0;
+    for (int k = 0; k < started; k++) {
+        if (search_end(&S[k]))
+            goto done;
+        r->accepted += S[k].r.accepted;
+        if (S[k].r.best_loss < S[w].r.best_loss || (isnan(S[w].r.best_loss) && !isnan(S[k].r.best_loss)))
+            w = k;
+        if (k == 0 || S[k].r.start_loss < r->start_loss)
+            r->start_loss = S[k].r.start_loss;
+    }
+    memcpy(params, S[w].x, (size_t)s->n * sizeof(float));
+    r->evals = spent;
+    r->winner = w;
+    r->winner_evals = S[w].r.evals;
+    r->start_movable = S[w].r.start_movable;
+    r->best_loss = S[w].r.best_loss;
     assert(r->best_loss <= r->start_loss || isnan(r->start_loss));
     rc = 0;
 done:
@@ -554,15 +691,19 @@ done:
         free(r->curve);
         r->curve = NULL;
     }
-    free(S.x);
-    free(S.y);
-    free(S.x0);
-    free(S.act);
-    free(S.movable);
-    free(step);
-    free(dir);
-    free(tried);
+    for (int k = 0; S && k < K; k++)
+        search_free(&S[k]);
+    free(S);
+    free(alive);
+    free(latest);
     return rc;
+}
+
+int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn loss,
+                  refine_active_fn active, void *ctx, float *params, refine_result *r,
+                  char *err, size_t errlen)
+{
+    return refine_race(s, o, loss, active, ctx, params, 1, params, r, err, errlen);
 }
 
 void refine_result_free(refine_result *r)

@@ -122,6 +122,15 @@ if [ -z "$quick" ]; then
     grep -q '"colour_phase":[[:space:]]*2' "$tmp/rc/report.json" &&
         grep -q '"colour_weight":[[:space:]]*0' "$tmp/rc/report.json"
     check "report.json names the loss options" 0 $?
+    # --starts: the -refine rows race their -topk method's best picks, within --refine
+    "$imsynth" evaluate $ev --starts 2 -o "$tmp/rk" > /dev/null 2>&1
+    check "evaluate, --starts 2" 0 $?
+    grep -v -e '-refine,' "$tmp/rk/inputs.csv" > "$tmp/rk.rest"
+    cmp -s "$tmp/rk.rest" "$tmp/r2.rest"; check "only the -refine rows depend on --starts" 0 $?
+    awk -F, '$3 ~ /refine/ && $4 == "mobilenetv2" && $8 != 4 { print; bad = 1 } END { exit bad }' \
+        "$tmp/rk/inputs.csv"
+    check "a race spends --refine renders in all" 0 $?
+    grep -q '"starts":[[:space:]]*2' "$tmp/rk/report.json"; check "report.json names --starts" 0 $?
 fi
 "$imsynth" evaluate $ev --colour-weight -1 -o "$tmp/rw" 2> "$tmp/err"
 check "bad --colour-weight" 2 $?

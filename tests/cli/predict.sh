@@ -107,6 +107,30 @@ check "the colour phase: the curve under 12 first, the losses reported under 4" 
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --colour-phase -1 2> "$tmp/err"
 check "bad --colour-phase" 2 $?
 
+# --starts K: the K best scored candidates are raced (refine_race); the winner's search may
+# come from any of them, the curve is the best over all, the budget theirs together
+"$imsynth" predict "$input" -o "$tmp/st" $fast --light scene --refine 9 --starts 3
+check "predict --starts 3" 0 $?
+py - "$tmp/st/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+ref, cands = r["refinement"], r["candidates"]
+k = min(3, len(cands))
+assert ref["starts"] == k and ref["evaluations"] == 9, ref
+raced = sorted(c["scene"]["loss"] for c in cands if c["refined"])
+assert raced == sorted(c["scene"]["loss"] for c in cands)[:k], cands
+chosen = [c for c in cands if c["chosen"]]
+assert len(chosen) == 1 and chosen[0]["refined"], chosen
+# search and refine preset are both draft here: the starts' losses are the candidates'
+assert ref["start_loss"] == raced[0], (ref, raced)
+c = ref["curve"]
+assert all(b <= a for a, b in zip(c, c[1:])) and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
+assert 1 <= ref["winner_evaluations"] <= 9, ref
+PY
+check "--starts: the best scored raced, the winner among them" 0 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --starts 0 2> "$tmp/err"
+check "bad --starts" 2 $?
+
 # a rerun into an earlier output replaces it; a folder of other files is refused and kept.
 # The rerun also removes what a killed run left (OUT.tmp.PID of a process that is gone),
 # and keeps a live run's

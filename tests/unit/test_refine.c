@@ -631,6 +631,160 @@ static void test_colour_phase(void **state)
     }
 }
 
+/* Every loss the race's callback returned, in call order (quadratic's, recorded). */
+typedef struct recorded {
+    problem p;
+    int n;
+    double loss[256];
+} recorded;
+
+static int recording(void *ctx, const float *x, double *loss, double *colour, char *err,
+                     size_t errlen)
+{
+    recorded *rec = ctx;
+    if (quadratic(&rec->p, x, loss, colour, err, errlen))
+        return -1;
+    assert_true(rec->n < 256);
+    rec->loss[rec->n++] = *loss;
+    return 0;
+}
+
+static int recording_active(void *ctx, const float *x, uint8_t *active, char *err,
+                            size_t errlen)
+{
+    return active_of(&((recorded *)ctx)->p, x, active, err, errlen);
+}
+
+/* One value with two basins: a shallow one at 0.1 (loss 0.2 there) next to a start, and a
+ * narrow, deeper one at 0.8 behind a wall that steps of <= 0.5 from 0.1 do not cross. */
+static int shallow_and_deep(void *ctx, const float *x, double *loss, double *colour,
+                            char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    ++*(int *)ctx;
+    double a = (x[0] - 0.1) * (x[0] - 0.1) + 0.2, b = 30.0 * (x[0] - 0.8) * (x[0] - 0.8);
+    *loss = a < b ? a : b;
+    *colour = 0.0;
+    return 0;
+}
+
+static int one_active(void *ctx, const float *x, uint8_t *active, char *err, size_t errlen)
+{
+    (void)ctx, (void)x, (void)err, (void)errlen;
+    active[0] = 1;
+    return 0;
+}
+
+/* The race: the budget is every search's evaluations together, spent by successive halving
+ * (2 starts: 56 + 112 of 224 for the one that goes on; 4 starts: 18 + 38 + 76); the curve
+ * is the best loss any search had reached at each evaluation; the result is never worse
+ * than the best start; one start is refine_search; the start whose own loss is worse can
+ * win when its basin is deeper. */
+static void test_race(void **state)
+{
+    (void)state;
+    float starts[4 * N], x[N];
+    for (int k = 0; k < 4; k++) {
+        memcpy(starts + k * N, start, sizeof start);
+        starts[k * N + 0] = 0.1f + 0.25f * (float)k; /* four different points */
+        starts[k * N + SEL] = (float)((k % 3 + 0.5) / 3);
+    }
+    char err[256];
+    for (int m = 0; m < REFINE_N_METHODS; m++)
+        for (int K = 1; K <= 4; K++) {
+            refine_options o;
+            refine_options_default(&o);
+            o.method = (refine_method)m;
+            o.budget = 224;
+            o.seed = 3;
+            recorded rec = {0};
+            refine_result r;
+            assert_int_equal(refine_race(&space, &o, recording, recording_active, &rec, starts,
+                                         K, x, &r, err, sizeof err), 0);
+            assert_int_equal(rec.n, 224);
+            assert_int_equal(r.evals, 224);
+            double best = INFINITY, best_start = INFINITY;
+            for (int i = 0; i < 224; i++) {
+                best = fmin(best, rec.loss[i]);
+                assert_true(r.curve[i] == best);
+            }
+            for (int k = 0; k < K; k++) { /* each search begins with its start */
+                problem q = {0};
+                double f, c;
+                assert_int_equal(quadratic(&q, starts + k * N, &f, &c, err, sizeof err), 0);
+                best_start = fmin(best_start, f);
+            }
+            assert_true(r.start_loss == best_start);
+            assert_true(r.best_loss == best && best <= best_start);
+            assert_true(r.winner >= 0 && r.winner < K);
+            static const int winner_evals[5] = {0, 224, 168, 138, 132};
+            assert_int_equal(r.winner_evals, winner_evals[K]);
+            problem q = {0};
+            double f, c;
+            assert_int_equal(quadratic(&q, x, &f, &c, err, sizeof err), 0);
+            assert_true(f == r.best_loss);
+            if (K == 1) { /* refine_search, evaluation for evaluation */
+                float y[N];
+                memcpy(y, starts, sizeof y);
+                refine_result r1;
+                problem p1 = {0};
+                assert_int_equal(refine_search(&space, &o, quadratic, active_of, &p1, y, &r1, err,
+                                               sizeof err), 0);
+                assert_memory_equal(x, y, sizeof y);
+                assert_memory_equal(r.curve, r1.curve, 224 * sizeof(double));
+                refine_result_free(&r1);
+            }
+            refine_result_free(&r);
+        }
+
+    /* A worse start in a deeper basin wins the race; alone, the better start stays shallow. */
+    static const refine_kind one_kind[1] = {REFINE_VALUE};
+    static const int no_choices[1] = {0};
+    const refine_space one = {.n = 1, .kind = one_kind, .choices = no_choices};
+    for (uint64_t seed = 1; seed <= 5; seed++) {
+        refine_options o;
+        refine_options_default(&o);
+        o.budget = 40;
+        o.seed = seed;
+        const float two[2] = {0.12f, 0.7f}; /* losses 0.2004 and 0.3 */
+        float y[1];
+        int calls = 0;
+        refine_result r;
+        assert_int_equal(refine_race(&one, &o, shallow_and_deep, one_active, &calls, two, 1, y,
+                                     &r, err, sizeof err), 0);
+        assert_true(r.best_loss >= 0.2);
+        refine_result_free(&r);
+        assert_int_equal(refine_race(&one, &o, shallow_and_deep, one_active, &calls, two, 2, y,
+                                     &r, err, sizeof err), 0);
+        assert_int_equal(r.winner, 1);
+        assert_true(r.best_loss < 0.01 && fabs(y[0] - 0.8) < 0.02);
+        assert_int_equal(calls, 80);
+        refine_result_free(&r);
+    }
+
+    /* More starts than the budget: the first `budget` only, one evaluation each. */
+    refine_options o;
+    refine_options_default(&o);
+    o.budget = 3;
+    recorded rec = {0};
+    refine_result r;
+    assert_int_equal(refine_race(&space, &o, recording, recording_active, &rec, starts, 4, x, &r,
+                                 err, sizeof err), 0);
+    assert_int_equal(rec.n, 3);
+    assert_true(r.winner < 3);
+    assert_memory_equal(x, starts + r.winner * N, sizeof x);
+    refine_result_free(&r);
+
+    /* A bad start is named before anything is evaluated. */
+    starts[1 * N + 2] = 1.5f;
+    rec.n = 0;
+    assert_int_equal(refine_race(&space, &o, recording, recording_active, &rec, starts, 2, x, &r,
+                                 err, sizeof err), -1);
+    assert_non_null(strstr(err, "start 1's parameter 2"));
+    assert_int_equal(rec.n, 0);
+    assert_null(r.curve);
+}
+
 /* refine_method_list is refine_method_names joined. */
 static void test_method_list(void **state)
 {
@@ -658,6 +812,7 @@ int main(void)
         cmocka_unit_test(test_coordinate_zoom),
         cmocka_unit_test(test_colour_phase),
         cmocka_unit_test(test_method_list),
+        cmocka_unit_test(test_race),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
