@@ -513,6 +513,9 @@ typedef struct refine_result {
                                    * is the best of the starts' */
     int winner;       /* refine_race: the start whose search gave the result (0: one start) */
     int winner_evals; /* the evaluations spent on the winner's search */
+    int n_starts;     /* the starts searched (<= the budget) and, for each, malloc'd: */
+    double *reached;  /* the loss its search reached, under colour_weight */
+    int *spent;       /* the evaluations its search made */
 } refine_result;
 
 /* Searches from params (in: the start, every value in [0, 1]; out: the best found) with

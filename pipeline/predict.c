@@ -726,10 +726,15 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
             cJSON_AddItemToObject(sj, "loss", num(c->loss[s]));
         }
         cJSON_AddBoolToObject(cj, "chosen", keep[j] == won_k);
-        int raced = 0;
-        for (int k = 0; k < n_starts; k++)
-            raced |= order[k] == keep[j];
-        cJSON_AddBoolToObject(cj, "refined", raced);
+        int raced = -1; /* its place among the starts */
+        for (int k = 0; k < rr.n_starts; k++)
+            raced = order[k] == keep[j] ? k : raced;
+        cJSON_AddBoolToObject(cj, "refined", raced >= 0);
+        if (raced >= 0) { /* how far its search got, and with how many evaluations */
+            cJSON *sj = cJSON_AddObjectToObject(cj, "search");
+            cJSON_AddNumberToObject(sj, "evaluations", rr.spent[raced]);
+            cJSON_AddItemToObject(sj, "reached", num(rr.reached[raced]));
+        }
         cJSON_AddItemToArray(cl, cj);
     }
     cJSON_AddNumberToObject(report, "candidates_merged", n_cands - n_keep);

@@ -623,8 +623,10 @@ int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn l
     int *alive = malloc((size_t)K * sizeof *alive);
     double *latest = malloc((size_t)K * sizeof *latest); /* each search's last curve value */
     r->curve = malloc((size_t)o->budget * sizeof(double));
+    r->reached = malloc((size_t)K * sizeof(double));
+    r->spent = malloc((size_t)K * sizeof(int));
     int rc = -1, started = 0, n_alive = K, spent = 0;
-    if (!S || !alive || !latest || !r->curve) {
+    if (!S || !alive || !latest || !r->curve || !r->reached || !r->spent) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -673,6 +675,8 @@ int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn l
         if (search_end(&S[k]))
             goto done;
         r->accepted += S[k].r.accepted;
+        r->reached[k] = S[k].r.best_loss;
+        r->spent[k] = S[k].r.evals;
         if (S[k].r.best_loss < S[w].r.best_loss || (isnan(S[w].r.best_loss) && !isnan(S[k].r.best_loss)))
             w = k;
         if (k == 0 || S[k].r.start_loss < r->start_loss)
@@ -680,6 +684,7 @@ int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn l
     }
     memcpy(params, S[w].x, (size_t)s->n * sizeof(float));
     r->evals = spent;
+    r->n_starts = started;
     r->winner = w;
     r->winner_evals = S[w].r.evals;
     r->start_movable = S[w].r.start_movable;
@@ -687,10 +692,8 @@ int refine_race(const refine_space *s, const refine_options *o, refine_loss_fn l
     assert(r->best_loss <= r->start_loss || isnan(r->start_loss));
     rc = 0;
 done:
-    if (rc) {
-        free(r->curve);
-        r->curve = NULL;
-    }
+    if (rc)
+        refine_result_free(r);
     for (int k = 0; S && k < K; k++)
         search_free(&S[k]);
     free(S);
@@ -709,5 +712,9 @@ int refine_search(const refine_space *s, const refine_options *o, refine_loss_fn
 void refine_result_free(refine_result *r)
 {
     free(r->curve);
+    free(r->reached);
+    free(r->spent);
     r->curve = NULL;
+    r->reached = NULL;
+    r->spent = NULL;
 }

@@ -126,6 +126,10 @@ assert ref["start_loss"] == raced[0], (ref, raced)
 c = ref["curve"]
 assert all(b <= a for a, b in zip(c, c[1:])) and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
 assert 1 <= ref["winner_evaluations"] <= 9, ref
+searches = [c["search"] for c in cands if c["refined"]]
+assert sum(x["evaluations"] for x in searches) == 9, searches
+assert chosen[0]["search"]["reached"] == min(x["reached"] for x in searches) == ref["best_loss"], searches
+assert chosen[0]["search"]["evaluations"] == ref["winner_evaluations"], (chosen, ref)
 PY
 check "--starts: the best scored raced, the winner among them" 0 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --starts 0 2> "$tmp/err"

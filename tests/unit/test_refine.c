@@ -717,6 +717,14 @@ static void test_race(void **state)
             assert_true(r.start_loss == best_start);
             assert_true(r.best_loss == best && best <= best_start);
             assert_true(r.winner >= 0 && r.winner < K);
+            assert_int_equal(r.n_starts, K);
+            int total = 0;
+            for (int k = 0; k < K; k++) {
+                total += r.spent[k];
+                assert_true(r.reached[k] >= r.best_loss);
+            }
+            assert_int_equal(total, 224);
+            assert_true(r.reached[r.winner] == r.best_loss && r.spent[r.winner] == r.winner_evals);
             static const int winner_evals[5] = {0, 224, 168, 138, 132};
             assert_int_equal(r.winner_evals, winner_evals[K]);
             problem q = {0};
