@@ -164,7 +164,24 @@ static void layout(sg_flat *f)
     free(row);
 }
 
-/* Drops dead nodes and renumbers links. */
+/* Links by their input (each input has at most one), then their source. */
+static int link_order(const void *pa, const void *pb)
+{
+    const sg_link *a = pa, *b = pb;
+    int ka[4] = {a->to_node, a->to_socket, a->from_node, a->from_socket};
+    int kb[4] = {b->to_node, b->to_socket, b->from_node, b->from_socket};
+    for (int i = 0; i < 4; i++)
+        if (ka[i] != kb[i])
+            return ka[i] < kb[i] ? -1 : 1;
+    return 0;
+}
+
+/* Drops dead nodes, renumbers links and sorts them (link_order). The folds remove and add
+ * links in an order that depends on which folds applied, so one sub-shader could come out
+ * with its links listed in different orders from two parameter sets whose difference it
+ * does not use (an unused pattern's selector): sorted, equal sub-shaders are equal text,
+ * which the active-parameter test, the candidates' de-duplication and the loss cache
+ * compare (pipeline/material.c, predict.c). */
 static void compact(sg_flat *f)
 {
     int *remap = malloc(sizeof(int) * ((size_t)f->t.n_nodes + 1));
@@ -195,6 +212,8 @@ static void compact(sg_flat *f)
         f->t.links[l].to_node = remap[f->t.links[l].to_node];
     }
     free(remap);
+    if (f->t.n_links > 1)
+        qsort(f->t.links, (size_t)f->t.n_links, sizeof *f->t.links, link_order);
 }
 
 /* Flattens and folds g; `extract` also drops what reaches no Material Output and lays
