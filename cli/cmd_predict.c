@@ -17,7 +17,7 @@ static const char *const help =
     "     any size of at least 32 x 32) is cut to its largest centred square and resampled\n"
     "     to the scene's 256 x 256, then described as the model's training renders were;\n"
     "  2. candidates: the predictor's --top-k hypotheses and the --nearest catalogue samples\n"
-    "     (those with the same sub-shader merged), each rendered in our scene and scored;\n"
+    "     (each list's first whose sub-shaders differ), each rendered in our scene and scored;\n"
     "  3. the best is refined: a search over the parameters its sub-shader depends on,\n"
     "     --refine N renders at the refine preset (N = 1: no refinement);\n"
     "  4. the result is rendered at the final preset and its sub-shader extracted.\n"

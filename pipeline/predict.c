@@ -513,13 +513,18 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     t_describe = pipeline_now() - t_stage;
     t_stage = pipeline_now();
 
-    /* Candidates: the predictor's hypotheses, then the catalogue's nearest. */
-    int n_all = o->top_k + o->nearest;
+    /* Candidates: the predictor's first --top-k hypotheses whose sub-shaders differ, then
+     * the catalogue's first --nearest such samples, as evaluate's -topk methods choose
+     * theirs: up to 4x as many are asked for, because hypotheses that differ only in what
+     * the sub-shader ignores render alike. The two lists are then merged. */
+    int ask_p = 4 * o->top_k > 256 ? 256 : 4 * o->top_k;
+    int ask_n = 4 * o->nearest > 256 ? 256 : 4 * o->nearest;
+    int n_all = ask_p + ask_n;
     cand_params = malloc((size_t)n_all * (size_t)np * sizeof(float));
     cands = calloc((size_t)n_all, sizeof *cands);
-    prob = malloc((size_t)o->top_k * sizeof *prob);
-    nindex = malloc((size_t)(o->nearest ? o->nearest : 1) * sizeof *nindex);
-    ndist = malloc((size_t)(o->nearest ? o->nearest : 1) * sizeof *ndist);
+    prob = malloc((size_t)ask_p * sizeof *prob);
+    nindex = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *nindex);
+    ndist = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *ndist);
     keep = malloc((size_t)n_all * sizeof *keep);
     best = malloc((size_t)np * sizeof *best);
     if (!cand_params || !cands || !prob || !nindex || !ndist || !keep || !best) {
@@ -530,7 +535,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     int use_stats = predictor_uses_texstats(pred);
     if (use_stats && pipeline_texstats(&input, stats, err, errlen))
         goto done;
-    int n_pred = predictor_predict(pred, sc.target_desc, use_stats ? stats : NULL, o->top_k,
+    int n_pred = predictor_predict(pred, sc.target_desc, use_stats ? stats : NULL, ask_p,
                                    cand_params, prob, err, errlen);
     if (n_pred < 0)
         goto done;
@@ -538,7 +543,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         cands[i] = (candidate){.from = FROM_PREDICTOR, .rank = i, .prior = prob[i], .id = -1};
     int n_near = 0;
     if (o->nearest > 0 && predictor_catalogue_size(pred) > 0) {
-        n_near = predictor_nearest(pred, sc.target_desc, o->nearest, nindex, ndist, err, errlen);
+        n_near = predictor_nearest(pred, sc.target_desc, ask_n, nindex, ndist, err, errlen);
         if (n_near < 0)
             goto done;
         for (int i = 0; i < n_near; i++) {
@@ -548,7 +553,25 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
             cands[n_pred + i] = (candidate){.from = FROM_CATALOGUE, .rank = i, .prior = ndist[i], .id = id};
         }
     }
-    int n_cands = n_pred + n_near;
+    /* Each list's first distinct ones, moved to the front (keep[] ascends, so in place). */
+    int n_cands = 0, passed_over = 0;
+    for (int src = 0; src < 2; src++) {
+        int first = src ? n_pred : 0, n = src ? n_near : n_pred, want = src ? o->nearest : o->top_k;
+        int got = n > 0 ? pipeline_distinct_subshaders(sc.graph, o->blender,
+                                                       cand_params + (size_t)first * np, n, want,
+                                                       keep, err, errlen)
+                        : 0;
+        if (got < 0)
+            goto done;
+        for (int j = 0; j < got; j++) {
+            assert(n_cands + j <= first + keep[j]);
+            memmove(cand_params + (size_t)(n_cands + j) * np,
+                    cand_params + (size_t)(first + keep[j]) * np, (size_t)np * sizeof(float));
+            cands[n_cands + j] = cands[first + keep[j]];
+        }
+        passed_over += got ? keep[got - 1] + 1 - got : 0;
+        n_cands += got;
+    }
     int n_keep = pipeline_distinct_subshaders(sc.graph, o->blender, cand_params, n_cands, n_cands,
                                               keep, err, errlen);
     if (n_keep < 0)
@@ -737,7 +760,9 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         }
         cJSON_AddItemToArray(cl, cj);
     }
-    cJSON_AddNumberToObject(report, "candidates_merged", n_cands - n_keep);
+    /* hypotheses and samples passed over (each list's, before its last kept one) or merged
+     * (a catalogue sample equal to a hypothesis) because another had their sub-shader */
+    cJSON_AddNumberToObject(report, "candidates_merged", passed_over + n_cands - n_keep);
     cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
     cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(rj, "budget", o->refine.budget);
