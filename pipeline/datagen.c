@@ -452,6 +452,12 @@ static char *config_json(const datagen_options *o, const shared *sh, const char 
     if (flash_hash)
         cJSON_AddStringToObject(c, "flash_scene_sha256", flash_hash);
     cJSON_AddNumberToObject(c, "blender", o->blender);
+    /* How the active mask is decided (docs/datasets.md): 2 since extraction lists links in
+     * one order (36bf3b2). Before, a selector the sub-shader does not use could count as
+     * active (an unused Detail Operation in ~18% of samples), and those configs have no
+     * such key, so a dataset begun under the old rule is not resumed or merged under the
+     * new one. */
+    cJSON_AddNumberToObject(c, "active_rule", 2);
     cJSON *p = cJSON_AddObjectToObject(c, "preset");
     cJSON_AddStringToObject(p, "name", o->preset->name);
     cJSON_AddNumberToObject(p, "spp", o->preset->spp);

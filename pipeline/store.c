@@ -114,11 +114,13 @@ int store_check_schema(sqlite3 *db, const char *path, char *err, size_t errlen)
     return ok ? 0 : -1;
 }
 
-/* Names the first top-level config key whose value differs, for the mismatch message. */
+/* Names the first top-level config key whose value differs, for the mismatch message: one
+ * of a's keys, else a key only b has. */
 static void describe_config_difference(const char *a, const char *b, char *out, size_t outlen)
 {
     cJSON *ja = cJSON_Parse(a), *jb = cJSON_Parse(b);
     snprintf(out, outlen, "the configs differ");
+    int found = 0;
     if (ja && jb) {
         const cJSON *x;
         cJSON_ArrayForEach(x, ja)
@@ -131,8 +133,20 @@ static void describe_config_difference(const char *a, const char *b, char *out, 
                          sx ? sx : "?", sy ? sy : "missing");
             free(sx);
             free(sy);
-            if (!same)
+            if (!same) {
+                found = 1;
                 break;
+            }
+        }
+        cJSON_ArrayForEach(x, jb)
+        {
+            if (found || cJSON_GetObjectItemCaseSensitive(ja, x->string))
+                continue;
+            char *sx = cJSON_PrintUnformatted(x);
+            snprintf(out, outlen, "\"%s\" is missing there, %.200s here", x->string,
+                     sx ? sx : "?");
+            free(sx);
+            found = 1;
         }
     }
     cJSON_Delete(ja);

@@ -62,6 +62,23 @@ check "a dataset without descriptors" 0 $?
 "$imsynth" dataset merge "$tmp/a.sqlite" "$tmp/c.sqlite" -o "$tmp/mix.sqlite" 2> "$tmp/err"
 check "merge refuses mismatched configs" 1 $?
 expect_stderr "names both files" "a.sqlite and .*c.sqlite"
+# A dataset begun before the active rule was recorded (its masks could mark an unused
+# selector active) is not resumed under the new rule
+cp "$tmp/c.sqlite" "$tmp/old.sqlite"
+/usr/bin/python3 - "$tmp/old.sqlite" << 'PY'
+import hashlib, json, sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+c = json.loads(db.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
+del c["active_rule"]
+text = json.dumps(c)
+db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (text,))
+db.execute("UPDATE meta SET value = ? WHERE key = 'config_hash'",
+           (hashlib.sha256(text.encode()).hexdigest(),))
+db.commit()
+PY
+"$imsynth" datagen --out "$tmp/old.sqlite" --count 3 --first-id 500 --preset draft --descriptor none --quiet 2> "$tmp/err"
+check "a dataset of the old active rule is not resumed" 1 $?
+expect_stderr "says the rule is missing there" '"active_rule" is missing there, 2 here'
 
 # kill -9 at random moments, then resume: equal to an uninterrupted run.
 kills=20; [ -n "$quick" ] && kills=5
