@@ -618,8 +618,9 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen);
 /* ---------------------------------------------------------------- predict ---------- */
 /*
  * `imsynth predict` (predict.c; docs/predict.md): an image in, a Blender material out.
- * Describe -> the predictor's top-k hypotheses and the catalogue's nearest samples ->
- * each rendered and scored -> the best refined (refine_search) -> rendered at the final
+ * Describe -> the predictor's first top-k distinct hypotheses and the catalogue's nearest
+ * samples -> each rendered and scored -> the best refined (refine_race: the
+ * refine.starts best raced, one by default) -> rendered at the final
  * preset -> sub-shader extracted. OUTDIR receives material.json (the sub-shader, in the
  * graph format blender/import_material.py builds), params.json (super-shader parameters),
  * preview.png, compare.png (input | preview | loss curve) and report.json (format
