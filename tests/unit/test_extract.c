@@ -206,6 +206,19 @@ static void random_plane_points(unsigned seed, int n, float *storage, sg_geometr
     }
 }
 
+/* Frame `seed`'s parameters bound to g (params: g's) and its sub-shader. */
+static sg_graph *extract_frame(sg_graph *g, sg_params *params, unsigned seed)
+{
+    char err[SG_ERROR_MAX] = "";
+    sg_params_sample(params, seed);
+    if (sg_graph_bind_params(g, params, err, sizeof err) < 0)
+        fail_msg("%s", err);
+    sg_graph *x = sg_extract(g, NULL, err, sizeof err);
+    if (!x)
+        fail_msg("seed %u: %s", seed, err);
+    return x;
+}
+
 /* The contract of issue 3 on the real super-shader: for 100 parametrizations, the
  * sub-shader's four maps equal the super-shader's at 4,096 random points each.
  * IMSYNTH_TEST_QUICK (set for the sanitizer run of scripts/test) checks 10. */
@@ -223,12 +236,7 @@ static void test_supershader_100_seeds(void **state)
     unsigned seeds = getenv("IMSYNTH_TEST_QUICK") ? 10 : 100;
     long total_nodes = 0;
     for (unsigned seed = 0; seed < seeds; seed++) {
-        sg_params_sample(&params, seed);
-        if (sg_graph_bind_params(g, &params, err, sizeof err) < 0)
-            fail_msg("%s", err);
-        sg_graph *x = sg_extract(g, NULL, err, sizeof err);
-        if (!x)
-            fail_msg("seed %u: %s", seed, err);
+        sg_graph *x = extract_frame(g, &params, seed);
         sg_program *pg = sg_compile(g, maps, 4, NULL, err, sizeof err), *px = sg_compile(x, maps, 4, NULL, err, sizeof err);
         if (!pg || !px)
             fail_msg("seed %u: compile: %s", seed, err);
@@ -310,12 +318,7 @@ static void test_same_subshader_same_text(void **state)
     unsigned seeds = getenv("IMSYNTH_TEST_QUICK") ? 8 : 40;
     int same_graph = 0;
     for (unsigned seed = 0; seed < seeds; seed++) {
-        sg_params_sample(&params, seed);
-        if (sg_graph_bind_params(g, &params, err, sizeof err) < 0)
-            fail_msg("%s", err);
-        sg_graph *x = sg_extract(g, NULL, err, sizeof err);
-        if (!x)
-            fail_msg("seed %u: %s", seed, err);
+        sg_graph *x = extract_frame(g, &params, seed);
         char *base = sg_graph_to_json(x), *base_sorted = sorted_lines(base);
         sg_graph_free(x);
         for (int k = 0; k < params.n; k++) {
