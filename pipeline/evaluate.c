@@ -504,7 +504,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
         }
         /* The pick: the first, or the candidate whose render is nearest the input under the
          * training descriptor (ties: the earlier, i.e. the likelier or nearer). */
-        int best = 0, order[256] = {0};
+        int order[256] = {0};
         double dist[256];
         for (int j = 0; j < n && methods[m].topk; j++) {
             candidate *c = candidate_get(&iw, buf + (size_t)j * np, err, errlen);
@@ -524,8 +524,8 @@ static int evaluate_input(worker *w, const input *in, result *r)
         }
         if (rc)
             break;
-        best = order[0];
-        n_ranked[m] = methods[m].topk && n < n_starts ? n : methods[m].topk ? n_starts : 1;
+        int best = order[0];
+        n_ranked[m] = !methods[m].topk ? 1 : n < n_starts ? n : n_starts;
         for (int j = 0; j < n_ranked[m]; j++)
             memcpy(ranked + ((size_t)m * n_starts + j) * np, buf + (size_t)order[j] * np,
                    np * sizeof(float));
