@@ -47,6 +47,11 @@ static const char *const help =
     "                          (colour percentiles, the dark and bright ends' colours,\n"
     "                          pyramid band energies, row / column detail), computed from\n"
     "                          the stored renders (docs/predictor.md)\n"
+    "  --conditional           the value parameters given the selectors: the network also\n"
+    "                          reads a combination's one-hot classes and learns each sample\n"
+    "                          twice (without them: the selectors and values; with its\n"
+    "                          own: the values), so that each top-k hypothesis gets values\n"
+    "                          of its own (docs/predictor.md)\n"
     "  --hidden W1-W2-...      hidden layer widths (default 1024-1024)\n"
     "  --epochs E              default 60\n"
     "  --batch B               default 128\n"
@@ -130,6 +135,10 @@ int cmd_fit_predictor(int argc, char **argv)
         }
         if (!strcmp(a, "--texstats")) {
             o.texstats = 1;
+            continue;
+        }
+        if (!strcmp(a, "--conditional")) {
+            o.conditional = 1;
             continue;
         }
         if (i + 1 >= argc) {

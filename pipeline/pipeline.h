@@ -401,6 +401,11 @@ typedef struct predictor_fit_options {
                                    * half the bytes of a model to ship */
     long long catalogue;          /* 0: every training sample in the catalogue; else the
                                    * first N (by id) */
+    int conditional;              /* the value parameters given the selectors: the network
+                                   * also reads a combination's one-hot classes (zeros: it
+                                   * predicts the selectors and values as without; a
+                                   * combination: that combination's values), so that each
+                                   * top-k hypothesis gets its own (predictor_fit.c) */
     const char *hidden;           /* hidden widths, "1024-1024" */
     int epochs, batch;
     float lr, weight_decay, dropout;

@@ -66,6 +66,12 @@ int predictor_layout_make(param_layout *L, const char *const *names, int n, char
  * head per selector, weighted 1/n_selectors); returns their count. */
 int predictor_layout_heads(const param_layout *L, nn_head *heads, float value_weight);
 int predictor_layout_outputs(const param_layout *L);
+/* The selectors' classes summed: the width of a combination's one-hot encoding. */
+int predictor_layout_classes(const param_layout *L);
+/* out (predictor_layout_classes) = the one-hot encoding of a combination: cls[s] is
+ * selector s's class (in parameter order), as a Y row's selector columns hold it. A
+ * conditional model (predictor_fit_options.conditional) reads it after its other inputs. */
+void predictor_layout_onehot(const param_layout *L, const float *cls, float *out);
 /* A sample's Y and mask row (n_values + n_selectors columns): values, selector classes;
  * mask = active. */
 void predictor_layout_targets(const param_layout *L, const float *params, const uint8_t *active,

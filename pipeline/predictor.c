@@ -20,6 +20,7 @@
  * a checkpoint after every epoch, and a rerun of the same command continues it to the
  * same bytes. OUT appears only when complete (a rename).
  */
+#include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -43,13 +44,14 @@ struct predictor {
     float *components, *variance;   /* (k, d), (k) */
     float *mean_params;             /* (n_params) */
     int ns;                         /* texture statistics after the components: 0 or TEXSTATS_N */
+    int nc;                         /* a conditional model's one-hot classes after them, or 0 */
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     nn_mlp net;
     size_t n_cat;
     float *cat_z, *cat_params;      /* (n_cat, k), (n_cat, n_params) */
     long long *cat_id;
     char *dataset_config;
-    float *x, *z, *out;             /* scratch: (d), (k + ns), (outputs) */
+    float *x, *z, *out;             /* scratch: (d), (k + ns + nc), (outputs) */
 };
 
 /* ---------------------------------------------------------------- layout ----------- */
@@ -81,6 +83,23 @@ int predictor_layout_make(param_layout *L, const char *const *names, int n, char
         return pipeline_error(err, errlen, "%d selectors: at most %d supported", L->n_selectors,
                               NN_MAX_HEADS - 1);
     return 0;
+}
+
+int predictor_layout_classes(const param_layout *L)
+{
+    return predictor_layout_outputs(L) - L->n_values;
+}
+
+void predictor_layout_onehot(const param_layout *L, const float *cls, float *out)
+{
+    memset(out, 0, (size_t)predictor_layout_classes(L) * sizeof(float));
+    for (int i = 0, s = 0, at = 0; i < L->n_params; i++)
+        if (L->role[i] == ROLE_SELECTOR) {
+            int c = (int)cls[s++];
+            assert(c >= 0 && c < L->classes[i]);
+            out[at + c] = 1.0f;
+            at += L->classes[i];
+        }
 }
 
 /* The class a selector's stored value (a bin centre (c + 0.5) / N) means. */
@@ -323,6 +342,16 @@ static int read_model_json(predictor *p, const char *path, char *err, size_t err
         goto done;
     }
     p->ns = ts ? (int)ts->valuedouble : 0;
+    const cJSON *sel_in = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(root, "network"), "selector_inputs");
+    if (sel_in && (!cJSON_IsNumber(sel_in) ||
+                   sel_in->valuedouble != predictor_layout_classes(&p->lay))) {
+        pipeline_error(err, errlen, "%s: \"network\".\"selector_inputs\" must be %d (the "
+                                    "selectors' classes)",
+                       path, predictor_layout_classes(&p->lay));
+        goto done;
+    }
+    p->nc = sel_in ? predictor_layout_classes(&p->lay) : 0;
     p->d = (size_t)feat->valuedouble;
     p->k = (int)comp->valuedouble;
     p->kind = pipeline_descriptor_kind_named(kind->valuestring);
@@ -394,7 +423,7 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
     p->variance = malloc(k * sizeof(float));
     p->mean_params = malloc(np * sizeof(float));
     p->x = malloc(d * sizeof(float));
-    p->z = malloc((k + (size_t)p->ns) * sizeof(float));
+    p->z = calloc(k + (size_t)p->ns + (size_t)p->nc, sizeof(float)); /* one-hot part zero */
     if (!p->scale || !p->mean || !p->std || !p->components || !p->variance || !p->mean_params ||
         !p->x || !p->z) {
         pipeline_error(err, errlen, "%s: out of memory for %zu features", dir, d);
@@ -432,12 +461,12 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
         goto fail;
     }
     int outputs = predictor_layout_outputs(&p->lay);
-    if (p->net.cfg.width[0] != p->k + p->ns ||
+    if (p->net.cfg.width[0] != p->k + p->ns + p->nc ||
         p->net.cfg.width[p->net.cfg.n_linear] != outputs) {
         pipeline_error(err, errlen, "%s: the network maps %d inputs to %d outputs; the model "
                                     "needs %d to %d",
                        path, p->net.cfg.width[0], p->net.cfg.width[p->net.cfg.n_linear],
-                       p->k + p->ns, outputs);
+                       p->k + p->ns + p->nc, outputs);
         goto fail;
     }
     p->net.threads = 1;
@@ -605,13 +634,36 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         out_first += C;
         s++;
     }
+    // a conditional model: each hypothesis's values from a pass given its combination
+    // (one batch of nb rows); otherwise every hypothesis has the values of the first pass
+    int outputs = predictor_layout_outputs(L), width = p->k + p->ns + p->nc;
+    float *given = NULL;
+    if (p->nc) {
+        float *x = malloc(sizeof(float) * (size_t)(nb * width)), cls[NN_MAX_HEADS];
+        given = malloc(sizeof(float) * (size_t)(nb * outputs));
+        for (int h = 0; x && given && h < nb; h++) {
+            memcpy(x + (size_t)(h * width), p->z, sizeof(float) * (size_t)(p->k + p->ns));
+            for (int si = 0; si < L->n_selectors; si++)
+                cls[si] = (float)beam[h].cls[si];
+            predictor_layout_onehot(L, cls, x + (size_t)(h * width + p->k + p->ns));
+        }
+        int bad = !x || !given || nn_mlp_forward(&p->net, x, nb, given);
+        free(x);
+        if (bad) {
+            free(given);
+            free(beam);
+            free(next);
+            return pipeline_error(err, errlen, "out of memory");
+        }
+    }
     for (int h = 0; h < nb; h++) {
         float *row = params + (size_t)h * L->n_params;
+        const float *out = given ? given + (size_t)(h * outputs) : p->out;
         for (int i = 0, si = 0; i < L->n_params; i++) {
             if (L->role[i] == ROLE_VALUE)
-                row[i] = p->out[L->column[i]];
+                row[i] = out[L->column[i]];
             else if (L->role[i] == ROLE_HUE) {
-                const float *o = p->out + L->column[i];
+                const float *o = out + L->column[i];
                 double hue = atan2(2.0 * o[1] - 1, 2.0 * o[0] - 1) / 6.283185307179586;
                 hue = hue < 0 ? hue + 1 : hue;
                 row[i] = (float)(hue >= 1 ? 0 : hue);
@@ -624,6 +676,7 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         if (prob)
             prob[h] = exp(beam[h].logp);
     }
+    free(given);
     free(beam);
     free(next);
     return nb;

@@ -449,17 +449,38 @@ static void texstats_standardisation(const float *S, size_t n, float *mean, floa
     }
 }
 
-/* r->input (n, k + ns) = each row's reduced descriptor, then (ns > 0) its standardised
- * texture statistics: what the network reads, as predictor_predict forms it. */
-static void network_inputs(rowset *r, int k, int ns, const float *stats_mean,
+/* r->input (n, nin) = each row's reduced descriptor, then (ns > 0) its standardised
+ * texture statistics, then (nin > k + ns: a conditional model) zeros where a combination's
+ * one-hot classes go: what the network reads, as predictor_predict forms it. */
+static void network_inputs(rowset *r, int k, int ns, int nin, const float *stats_mean,
                            const float *stats_std)
 {
-    size_t kin = (size_t)(k + ns);
     for (size_t i = 0; i < r->n; i++) {
-        memcpy(r->input + i * kin, r->Z + i * (size_t)k, (size_t)k * sizeof(float));
+        float *x = r->input + i * (size_t)nin;
+        memset(x, 0, (size_t)nin * sizeof(float));
+        memcpy(x, r->Z + i * (size_t)k, (size_t)k * sizeof(float));
         if (ns)
-            predictor_texstats_standardise(r->input + i * kin + k, r->S + i * TEXSTATS_N,
-                                           stats_mean, stats_std);
+            predictor_texstats_standardise(x + k, r->S + i * TEXSTATS_N, stats_mean, stats_std);
+    }
+}
+
+/* A conditional model sees every row twice. Rows [0, n) of x (n, nin), y and m (n, yc) are
+ * the rows as read, their one-hot part zero: there the network predicts the selectors and
+ * the values with no combination given. This writes rows [n, 2n): the same rows given their
+ * own combination (the true classes, also where a selector is inactive: they are the
+ * sample's), the selectors' masks zero, so that there only the values are learnt (the
+ * classes are in the input). kin = the inputs before the one-hot part. */
+static void pair_with_combination(const param_layout *L, int kin, int nin, float *x, float *y,
+                                  float *m, size_t n)
+{
+    size_t yc = (size_t)(L->n_values + L->n_selectors);
+    for (size_t r = 0; r < n; r++) {
+        float *x2 = x + (n + r) * (size_t)nin, *y2 = y + (n + r) * yc, *m2 = m + (n + r) * yc;
+        memcpy(x2, x + r * (size_t)nin, (size_t)kin * sizeof(float));
+        predictor_layout_onehot(L, y + r * yc + L->n_values, x2 + kin);
+        memcpy(y2, y + r * yc, yc * sizeof(float));
+        memcpy(m2, m + r * yc, (size_t)L->n_values * sizeof(float));
+        memset(m2 + L->n_values, 0, (size_t)L->n_selectors * sizeof(float));
     }
 }
 
@@ -511,8 +532,11 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* input: the network's inputs of val's rows (val->input, or the rows given their
+ * combination for a conditional model's R^2 given the selectors). */
 static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val,
-                           const rowset *train, const float *mean_y, fit_metrics *fm)
+                           const float *input, const rowset *train, const float *mean_y,
+                           fit_metrics *fm)
 {
     memset(fm, 0, sizeof *fm);
     int yc = L->n_values + L->n_selectors;
@@ -521,7 +545,7 @@ static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val
         return -1;
     for (size_t i = 0; i < val->n; i += 256) {
         int B = val->n - i < 256 ? (int)(val->n - i) : 256;
-        if (nn_mlp_predict(net, val->input + i * (size_t)net->cfg.width[0], B,
+        if (nn_mlp_predict(net, input + i * (size_t)net->cfg.width[0], B,
                            pred + i * (size_t)yc)) {
             free(pred);
             return -1;
@@ -598,6 +622,8 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     }
     if (o->half)
         cJSON_AddBoolToObject(j, "half", 1);
+    if (o->conditional)
+        cJSON_AddBoolToObject(j, "conditional", 1);
     if (o->catalogue)
         cJSON_AddNumberToObject(j, "catalogue", (double)o->catalogue);
     cJSON_AddStringToObject(j, "arch", arch);
@@ -703,8 +729,8 @@ static int state_read(const char *path, const char *settings, run_state *s, int 
 static char *model_json(const predictor_fit_options *o, const param_layout *L,
                         char *const *names, const char *settings, const char *config,
                         size_t d, const rowset *train, const rowset *val, const run_state *st,
-                        const fit_metrics *fm, const char *arch, const char *heads,
-                        double seconds)
+                        const fit_metrics *fm, const fit_metrics *given, const char *arch,
+                        const char *heads, double seconds)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "format", MODEL_FORMAT);
@@ -747,6 +773,13 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON *net = cJSON_AddObjectToObject(j, "network");
     cJSON_AddStringToObject(net, "arch", arch);
     cJSON_AddStringToObject(net, "heads", heads);
+    if (o->conditional) {
+        cJSON_AddNumberToObject(net, "selector_inputs", predictor_layout_classes(L));
+        cJSON_AddStringToObject(net, "conditional",
+                                "after the other inputs, a combination's one-hot selector "
+                                "classes: zero to predict the selectors (and values with no "
+                                "combination), a hypothesis's classes for its values");
+    }
     cJSON_AddItemToObject(j, "training", cJSON_Parse(settings));
     cJSON *res = cJSON_AddObjectToObject(j, "result");
     cJSON_AddNumberToObject(res, "best_epoch", st->best_epoch);
@@ -754,6 +787,9 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON_AddNumberToObject(res, "seconds", round(seconds * 10) / 10);
     cJSON_AddNumberToObject(res, "val_mean_selector_accuracy", fm->mean_selector_acc);
     cJSON_AddNumberToObject(res, "val_median_value_r2", fm->median_value_r2);
+    if (given)
+        cJSON_AddNumberToObject(res, "val_median_value_r2_given_true_selectors",
+                                given->median_value_r2);
     cJSON *sel = cJSON_AddObjectToObject(res, "val_selector_accuracy");
     cJSON *maj = cJSON_AddObjectToObject(res, "train_selector_majority");
     cJSON *r2 = cJSON_AddObjectToObject(res, "val_value_r2");
@@ -785,6 +821,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     size_t d = 0;
     float *scale = NULL, *mean = NULL, *std = NULL, *comp = NULL, *var = NULL, *mean_p = NULL;
     float *best_w = NULL, *bx = NULL, *by = NULL, *bm = NULL, *mean_y = NULL;
+    float *vx = NULL, *vy = NULL, *vm = NULL; /* a conditional model's validation pairs */
     float *feature_mask = NULL;
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     char mask_sha[65] = "";
@@ -841,8 +878,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     if (predictor_layout_make(&L, (const char *const *)names, np, err, errlen))
         goto done;
     int outputs = predictor_layout_outputs(&L), yc = L.n_values + L.n_selectors, k = o->components;
-    int ns = o->texstats ? TEXSTATS_N : 0, kin = k + ns; /* the network's input width */
-    snprintf(arch, sizeof arch, "mlp:%d-%s-%d,ln,dropout=%g", kin, o->hidden, outputs,
+    int ns = o->texstats ? TEXSTATS_N : 0, kin = k + ns;
+    int nin = kin + (o->conditional ? predictor_layout_classes(&L) : 0); /* the input width */
+    int pairs = o->conditional ? 2 : 1; /* network rows per sample (pair_with_combination) */
+    snprintf(arch, sizeof arch, "mlp:%d-%s-%d,ln,dropout=%g", nin, o->hidden, outputs,
              (double)o->dropout);
     nn_mlp_config cfg;
     if (nn_mlp_parse_arch(arch, &cfg, msg, sizeof msg)) {
@@ -896,8 +935,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     mean_p = calloc((size_t)np, sizeof(float));
     train.Z = malloc(train.n * (size_t)k * sizeof(float));
     val.Z = malloc(val.n * (size_t)k * sizeof(float));
-    train.input = malloc(train.n * (size_t)kin * sizeof(float));
-    val.input = malloc(val.n * (size_t)kin * sizeof(float));
+    train.input = malloc(train.n * (size_t)nin * sizeof(float));
+    val.input = malloc(val.n * (size_t)nin * sizeof(float));
     if (!scale || !mean || !std || !comp || !var || !mean_p || !train.Z || !val.Z || !train.input ||
         !val.input) {
         pipeline_error(err, errlen, "out of memory for the transform");
@@ -958,8 +997,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         predictor_transform_row(val.X + i * d, d, scale, mean, std);
     nn_pca_transform(train.Z, train.X, comp, var, (int)train.n, (int)d, k, 1, o->threads);
     nn_pca_transform(val.Z, val.X, comp, var, (int)val.n, (int)d, k, 1, o->threads);
-    network_inputs(&train, k, ns, stats_mean, stats_std);
-    network_inputs(&val, k, ns, stats_mean, stats_std);
+    network_inputs(&train, k, ns, nin, stats_mean, stats_std);
+    network_inputs(&val, k, ns, nin, stats_mean, stats_std);
     free(train.X);
     free(val.X);
     train.X = val.X = NULL;
@@ -1025,13 +1064,31 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         goto done;
     }
     best_w = malloc(net.n_floats * sizeof(float));
-    bx = malloc((size_t)o->batch * (size_t)kin * sizeof(float));
-    by = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
-    bm = malloc((size_t)o->batch * (size_t)yc * sizeof(float));
+    bx = malloc((size_t)(pairs * o->batch) * (size_t)nin * sizeof(float));
+    by = malloc((size_t)(pairs * o->batch) * (size_t)yc * sizeof(float));
+    bm = malloc((size_t)(pairs * o->batch) * (size_t)yc * sizeof(float));
     order = malloc(train.n * sizeof(size_t));
     if (!best_w || !bx || !by || !bm || !order) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
+    }
+    // the validation loss of a conditional model is over both kinds of row, as training's
+    const float *vxs = val.input, *vys = val.Y, *vms = val.M;
+    if (o->conditional) {
+        vx = malloc(2 * val.n * (size_t)nin * sizeof(float));
+        vy = malloc(2 * val.n * (size_t)yc * sizeof(float));
+        vm = malloc(2 * val.n * (size_t)yc * sizeof(float));
+        if (!vx || !vy || !vm) {
+            pipeline_error(err, errlen, "out of memory");
+            goto done;
+        }
+        memcpy(vx, val.input, val.n * (size_t)nin * sizeof(float));
+        memcpy(vy, val.Y, val.n * (size_t)yc * sizeof(float));
+        memcpy(vm, val.M, val.n * (size_t)yc * sizeof(float));
+        pair_with_combination(&L, kin, nin, vx, vy, vm, val.n);
+        vxs = vx;
+        vys = vy;
+        vms = vm;
     }
     memcpy(best_w, net.weights, net.n_floats * sizeof(float));
     run_file(path, sizeof path, partial, "best", st.best_epoch);
@@ -1055,11 +1112,13 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
             size_t first;
             int count;
             nn_step_batch((long long)e * per_epoch + s, train.n, o->batch, &epoch, &first, &count);
-            nn_gather_rows(bx, train.input, (size_t)kin, order + first, (size_t)count);
+            nn_gather_rows(bx, train.input, (size_t)nin, order + first, (size_t)count);
             nn_gather_rows(by, train.Y, (size_t)yc, order + first, (size_t)count);
             nn_gather_rows(bm, train.M, (size_t)yc, order + first, (size_t)count);
+            if (o->conditional)
+                pair_with_combination(&L, kin, nin, bx, by, bm, (size_t)count);
             double loss;
-            if (nn_mlp_train_step(&net, &opt, bx, by, bm, count, &loss)) {
+            if (nn_mlp_train_step(&net, &opt, bx, by, bm, pairs * count, &loss)) {
                 pipeline_error(err, errlen, "out of memory");
                 goto done;
             }
@@ -1067,8 +1126,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         }
         double vl;
         fit_metrics fm;
-        if (nn_mlp_evaluate(&net, val.input, val.Y, val.M, (int)val.n, &vl) ||
-            compute_metrics(&net, &L, &val, &train, mean_y, &fm)) {
+        if (nn_mlp_evaluate(&net, vxs, vys, vms, pairs * (int)val.n, &vl) ||
+            compute_metrics(&net, &L, &val, val.input, &train, mean_y, &fm)) {
             pipeline_error(err, errlen, "out of memory");
             goto done;
         }
@@ -1114,8 +1173,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
 
     // 7. the model: best weights, catalogue, description; then OUT in one rename
     memcpy(net.weights, best_w, net.n_floats * sizeof(float));
-    fit_metrics fm;
-    if (compute_metrics(&net, &L, &val, &train, mean_y, &fm)) {
+    fit_metrics fm, given;
+    if (compute_metrics(&net, &L, &val, val.input, &train, mean_y, &fm) ||
+        (o->conditional &&
+         compute_metrics(&net, &L, &val, vx + val.n * (size_t)nin, &train, mean_y, &given))) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -1132,8 +1193,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         goto done;
     }
     free(text);
-    text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm, arch,
-                      heads_spec, pipeline_now() - t_start);
+    text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm,
+                      o->conditional ? &given : NULL, arch, heads_spec, pipeline_now() - t_start);
     snprintf(path, sizeof path, "%s/model.json", partial);
     if (!text || pipeline_write_text_atomic(path, text, msg, sizeof msg)) {
         pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
@@ -1180,6 +1241,9 @@ done:
     free(bx);
     free(by);
     free(bm);
+    free(vx);
+    free(vy);
+    free(vm);
     free(mean_y);
     free(order);
     free(st.train_loss);

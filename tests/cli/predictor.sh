@@ -244,6 +244,43 @@ json.dump(m, open('$tmp/bs/model.json', 'w'))
 "$imsynth" predict-params "$img" --model "$tmp/bs" 2> "$tmp/err"
 check "a model claiming 12 texture statistics" 1 $?
 expect_stderr "names the file and the field" "bs/model.json: \"transform\".\"texstats\" must be 0 or 38"
+# --conditional: the network reads 8 components and the 76 one-hot selector classes; each
+# hypothesis gets values of its own (the first hypothesis's are predict-params' answer);
+# kill -9 and resume gives the uninterrupted bytes; a model.json whose one-hot width is
+# not the selectors' classes is refused
+"$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 1 -o "$tmp/mc"
+check "fit --conditional" 0 $?
+"$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 2 -o "$tmp/mc2" &
+pid=$!; sleep 0.7; kill -9 $pid 2> /dev/null; wait $pid 2> /dev/null
+[ -d "$tmp/mc2" ] || "$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 2 -o "$tmp/mc2"
+cmp -s "$tmp/mc/network.safetensors" "$tmp/mc2/network.safetensors"
+check "--conditional: killed and resumed equals uninterrupted" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/mc" -o "$tmp/pc.json" --top-k 4 \
+    --hypotheses "$tmp/hc.json"
+check "a --conditional model predicts" 0 $?
+py "
+import json
+m = json.load(open('$tmp/mc/model.json'))
+assert m['network']['arch'].startswith('mlp:84-') and m['network']['selector_inputs'] == 76, m['network']
+assert m['training']['conditional'] is True
+assert -1 < m['result']['val_median_value_r2_given_true_selectors'] <= 1, m['result']
+p = json.load(open('$tmp/pc.json')); hyp = json.load(open('$tmp/hc.json'))['hypotheses']
+assert len(hyp) == 4 and hyp[0]['params'] == p
+vals = [k for k in p if not k.startswith('Mult ') and k != 'Pattern Offset']
+assert all(0 <= x['params'][k] <= 1 for x in hyp for k in vals)
+differ = sum(any(x['params'][k] != hyp[0]['params'][k] for k in vals) for x in hyp[1:])
+assert differ == 3, 'each hypothesis has values given its own selectors: %d of 3 differ' % differ
+"
+check "one-hot inputs in model.json; each hypothesis its own values" 0 $?
+cp -r "$tmp/mc" "$tmp/bc"
+py "
+import json
+m = json.load(open('$tmp/bc/model.json')); m['network']['selector_inputs'] = 75
+json.dump(m, open('$tmp/bc/model.json', 'w'))
+"
+"$imsynth" predict-params "$img" --model "$tmp/bc" 2> "$tmp/err"
+check "a model claiming 75 one-hot inputs" 1 $?
+expect_stderr "names the file and the field" "bc/model.json: \"network\".\"selector_inputs\" must be 76"
 # without --model: the bundled model, as predict and search use it
 "$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
 check "predict-params without --model" 0 $?
