@@ -65,6 +65,20 @@ def median_r2(pred, Yt, At, Yv, Av, roles, vals):
     return float(np.median(r2))
 
 
+def squash(o, roles, vals):
+    """Network outputs -> value columns (sigmoid for a value, tanh for a hue's cos / sin)."""
+    import torch
+    cols, j = [], 0
+    for i in vals:
+        if roles[i] == 'hue':
+            cols += [torch.tanh(o[:, j]), torch.tanh(o[:, j + 1])]
+            j += 2
+        else:
+            cols.append(torch.sigmoid(o[:, j]))
+            j += 1
+    return torch.stack(cols, 1)
+
+
 def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
     """fit-predictor's network and loss in PyTorch (1024-1024, LayerNorm, ReLU, dropout 0.5,
     AdamW 1e-3 / 1e-4, cosine schedule, batch 128, value weight 10); the median R^2 at the
@@ -104,15 +118,7 @@ def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
             l = torch.nn.functional.cross_entropy(o[:, k:k + n], c, reduction='none')
             ce = ce + (l * a).sum() / a.sum().clamp(min=1)
             k += n
-        cols, j = [], k
-        for i in vals:
-            if roles[i] == 'hue':
-                cols += [torch.tanh(o[:, j]), torch.tanh(o[:, j + 1])]
-                j += 2
-            else:
-                cols.append(torch.sigmoid(o[:, j]))
-                j += 1
-        pv = torch.stack(cols, 1)
+        pv = squash(o[:, k:], roles, vals)
         return ce / len(nch) + 10 * ((pv - tv) ** 2 * mv).sum() / mv.sum().clamp(min=1), pv
 
     Xt, Xv = torch.tensor(Ft, dtype=torch.float32), torch.tensor(Fv, dtype=torch.float32)
