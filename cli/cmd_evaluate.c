@@ -58,6 +58,9 @@ static const char *const help =
     "  --handmade DIR        the hand-made materials (e.g. tests/handmade)\n"
     "  -o, --output DIR      the report folder (required)\n"
     "  --top-k K             candidates of the -topk methods (default 8)\n"
+    "  --sample-hypotheses T the predictor's top-k: its likeliest combination and K - 1\n"
+    "                        drawn from its heads sharpened to p^(1/T) (default: the K\n"
+    "                        likeliest)\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
@@ -148,6 +151,9 @@ int cmd_evaluate(int argc, char **argv)
             if (cli_parse_ll(sub, a, v, 1, 256, &n))
                 return EXIT_USAGE;
             o.top_k = (int)n;
+        } else if (!strcmp(a, "--sample-hypotheses")) {
+            if (cli_parse_double(sub, a, v, 0.01, 100, &o.sample_hypotheses))
+                return EXIT_USAGE;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))
                 return EXIT_USAGE;

@@ -22,6 +22,8 @@ static const char *const help =
     "  --model MODEL_DIR      from `imsynth fit-predictor` (default: the bundled assets/model)\n"
     "  -o, --output P.json    the top hypothesis (default: stdout)\n"
     "  --top-k K              also consider the K likeliest selector combinations\n"
+    "  --sample-hypotheses T  instead of the K likeliest: the likeliest and K - 1 drawn from\n"
+    "                         the selectors' distributions sharpened to p^(1/T)\n"
     "  --hypotheses H.json    write all K as {\"hypotheses\": [{\"probability\": p,\n"
     "                         \"params\": {...}}, ...]}, likeliest first\n"
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
@@ -48,6 +50,7 @@ int cmd_predict_params(int argc, char **argv)
     }
     const char *image_path = NULL, *model_dir = NULL, *out = NULL, *hyp_path = NULL;
     long long top_k = 1, nearest = 0;
+    double temperature = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] != '-') {
@@ -71,6 +74,9 @@ int cmd_predict_params(int argc, char **argv)
             hyp_path = v;
         else if (!strcmp(a, "--top-k")) {
             if (cli_parse_ll(sub, a, v, 1, 4096, &top_k))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--sample-hypotheses")) {
+            if (cli_parse_double(sub, a, v, 0.01, 100, &temperature))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--nearest")) {
             if (cli_parse_ll(sub, a, v, 1, 4096, &nearest))
@@ -98,6 +104,7 @@ int cmd_predict_params(int argc, char **argv)
     predictor *p = predictor_load(model_dir, err, sizeof err);
     if (!p)
         goto fail;
+    predictor_sample_hypotheses(p, temperature);
     if (image_read(image_path, &img, err, sizeof err) ||
         pipeline_prepare_input(&img, 256, &prepared, err, sizeof err))
         goto fail;

@@ -366,6 +366,12 @@ int predictor_uses_texstats(const predictor *p);
  * Returns the number written (>= 1), or -1 with a message. */
 int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
                       float *params, double *prob, char *err, size_t errlen);
+/* How predictor_predict chooses its k combinations from then on: temperature 0 (the
+ * default) the k likeliest; T > 0 the likeliest and k - 1 distinct others drawn from the
+ * heads' distributions sharpened to p^(1/T) (the same draws for every call: a pure
+ * function of the draw's index), which spreads the k over more of the uncertain selectors
+ * than the likeliest few do (EVALUATION.md, session 24). Still most probable first. */
+void predictor_sample_hypotheses(predictor *p, double temperature);
 
 /* The k catalogue samples nearest to a descriptor in the model's reduced input space
  * (Euclidean over the whitened PCA components), nearest first: index (k), dist (k, may
@@ -601,6 +607,8 @@ typedef struct evaluate_options {
     const datagen_preset *preset; /* how candidates and results are rendered and measured */
     const datagen_preset *refine_preset; /* the refinement's renders; NULL: preset */
     int top_k;                /* candidates of the -topk methods (>= 1) */
+    double sample_hypotheses; /* 0: the predictor's k likeliest combinations; T > 0:
+                               * predictor_sample_hypotheses(T) */
     long long limit;          /* at most this many test rows (<= 0: all) */
     int threads;              /* workers (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;

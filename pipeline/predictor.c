@@ -45,6 +45,8 @@ struct predictor {
     float *mean_params;             /* (n_params) */
     int ns;                         /* texture statistics after the components: 0 or TEXSTATS_N */
     int nc;                         /* a conditional model's one-hot classes after them, or 0 */
+    double temperature;             /* 0: the k likeliest combinations; > 0: sampled ones
+                                     * (predictor_sample_hypotheses) */
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     nn_mlp net;
     size_t n_cat;
@@ -567,6 +569,54 @@ void predictor_texstats_standardise(float *out, const float *raw, const float *m
         out[j] = (raw[j] - mean[j]) / std[j];
 }
 
+void predictor_sample_hypotheses(predictor *p, double temperature)
+{
+    p->temperature = temperature > 0 ? temperature : 0;
+}
+
+/* Combinations drawn from the heads' distributions sharpened by the temperature (class c of
+ * a head with probability proportional to p_c^(1/T)), after the likeliest one: up to k
+ * distinct in out, in draw order, their logp under the heads. The draws are a pure
+ * function of (draw, selector), so one image always gets the same hypotheses. */
+static int sample_combos(const predictor *p, int k, combo *out)
+{
+    const param_layout *L = &p->lay;
+    int n = 0;
+    for (int draw = 0; draw < 64 * k && n < k; draw++) {
+        combo c = {0};
+        int out_first = L->n_values, s = 0;
+        for (int i = 0; i < L->n_params; i++) {
+            if (L->role[i] != ROLE_SELECTOR)
+                continue;
+            int C = L->classes[i], pick = 0;
+            const float *pr = p->out + out_first;
+            if (draw == 0) { /* the likeliest: each head's argmax (ties: the lower class) */
+                for (int j = 1; j < C; j++)
+                    pick = pr[j] > pr[pick] ? j : pick;
+            } else {
+                double w[64], total = 0;
+                assert(C <= 64);
+                for (int j = 0; j < C; j++)
+                    total += w[j] = pow(fmax((double)pr[j], 1e-30), 1 / p->temperature);
+                uint64_t bits = nn_mix64(((uint64_t)draw << 8 | (uint64_t)s) ^ 0x68797073ull);
+                double u = (double)(bits >> 11) * 0x1.0p-53 * total;
+                for (pick = 0; pick < C - 1 && (u -= w[pick]) >= 0; pick++)
+                    ;
+            }
+            c.cls[s] = pick;
+            c.logp += log(fmax((double)pr[pick], 1e-30));
+            out_first += C;
+            s++;
+        }
+        int seen = 0;
+        for (int j = 0; j < n && !seen; j++)
+            seen = !memcmp(out[j].cls, c.cls, sizeof c.cls);
+        if (!seen)
+            out[n++] = c;
+    }
+    return n;
+}
+
 int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
                       float *params, double *prob, char *err, size_t errlen)
 {
@@ -596,7 +646,17 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         return pipeline_error(err, errlen, "out of memory");
     beam[0].logp = 0;
     int out_first = L->n_values, s = 0;
-    for (int i = 0; i < L->n_params; i++) {
+    if (p->temperature > 0) {
+        nb = sample_combos(p, k, beam);
+        // ordered by probability like the beam's (stable: the likeliest stays first)
+        for (int a = 1; a < nb; a++)
+            for (int b = a; b > 0 && beam[b].logp > beam[b - 1].logp; b--) {
+                combo t = beam[b];
+                beam[b] = beam[b - 1];
+                beam[b - 1] = t;
+            }
+    }
+    for (int i = 0; i < L->n_params && !(p->temperature > 0); i++) {
         if (L->role[i] != ROLE_SELECTOR)
             continue;
         int C = L->classes[i];

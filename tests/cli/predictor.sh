@@ -97,6 +97,32 @@ print('hypotheses', pr)
 "
 check "hypotheses: ordered, distinct, same values; nearest: ordered, distinct" 0 $?
 
+# --sample-hypotheses: the likeliest combination first (the beam's answer), then distinct
+# drawn ones, most probable first; the same image gives the same draws
+"$imsynth" predict-params "$img" --model "$tmp/m1" --top-k 6 --sample-hypotheses 0.5 \
+    --hypotheses "$tmp/hs1.json" -o "$tmp/ps1.json" &&
+    "$imsynth" predict-params "$img" --model "$tmp/m1" --top-k 6 --sample-hypotheses 0.5 \
+        --hypotheses "$tmp/hs2.json" -o "$tmp/ps2.json"
+check "predict-params --sample-hypotheses" 0 $?
+cmp -s "$tmp/hs1.json" "$tmp/hs2.json"
+check "sampled hypotheses: the same draws on a rerun" 0 $?
+py "
+import json
+p = json.load(open('$tmp/p.json')); hyp = json.load(open('$tmp/hs1.json'))['hypotheses']
+beam = json.load(open('$tmp/h.json'))['hypotheses']
+assert json.load(open('$tmp/ps1.json')) == p and hyp[0]['params'] == p
+pr = [x['probability'] for x in hyp]
+assert len(hyp) == 6 and pr == sorted(pr, reverse=True), pr
+sel = [k for k in p if k.startswith('Mult ')]
+combos = [tuple(x['params'][k] for k in sel) for x in hyp]
+assert len(set(combos)) == 6
+# the beam's 5 are the 5 likeliest: a drawn set is no likelier, and differs from it
+assert sum(pr[:5]) <= sum(x['probability'] for x in beam) + 1e-12
+assert set(combos[:5]) != {tuple(x['params'][k] for k in sel) for x in beam}
+"
+check "sampled: likeliest first, distinct, ordered, not the beam's" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/m1" --sample-hypotheses 0 2> "$tmp/err"
+check "--sample-hypotheses 0 is a usage error" 2 $?
 # bad models: clear errors naming the file
 "$imsynth" predict-params "$img" --model "$tmp/nothing" 2> "$tmp/err"
 check "a missing model directory" 1 $?
