@@ -10,6 +10,17 @@ root=$2
 . "$root/tests/cli/lib/harness.sh"
 quick=${IMSYNTH_TEST_QUICK:-}
 py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
+# lying_model GOOD BAD STATEMENT: $tmp/BAD = a copy of model $tmp/GOOD whose model.json has
+# had the Python STATEMENT applied to it (as m); predict-params with it, stderr in $tmp/err
+lying_model() {
+    cp -r "$tmp/$1" "$tmp/$2"
+    py "
+import json
+m = json.load(open('$tmp/$2/model.json')); $3
+json.dump(m, open('$tmp/$2/model.json', 'w'))
+"
+    "$imsynth" predict-params "$img" --model "$tmp/$2" 2> "$tmp/err"
+}
 
 n=32; [ -n "$quick" ] && n=24
 "$imsynth" datagen --out "$tmp/ds.sqlite" --count $n --preset draft --quiet
@@ -261,13 +272,7 @@ img2="$root/tests/reference/render/supershader_s2/blender-4.3-a.exr"
 check "a --texstats model predicts" 0 $?
 cmp -s "$tmp/ps1.json" "$tmp/ps2.json"
 check "two images, two predictions" 1 $?
-cp -r "$tmp/ms" "$tmp/bs"
-py "
-import json
-m = json.load(open('$tmp/bs/model.json')); m['transform']['texstats'] = 12
-json.dump(m, open('$tmp/bs/model.json', 'w'))
-"
-"$imsynth" predict-params "$img" --model "$tmp/bs" 2> "$tmp/err"
+lying_model ms bs "m['transform']['texstats'] = 12"
 check "a model claiming 12 texture statistics" 1 $?
 expect_stderr "names the file and the field" "bs/model.json: \"transform\".\"texstats\" must be 0 or 38"
 # --conditional: the network reads 8 components and the 76 one-hot selector classes; each
@@ -298,13 +303,7 @@ differ = sum(any(x['params'][k] != hyp[0]['params'][k] for k in vals) for x in h
 assert differ == 3, 'each hypothesis has values given its own selectors: %d of 3 differ' % differ
 "
 check "one-hot inputs in model.json; each hypothesis its own values" 0 $?
-cp -r "$tmp/mc" "$tmp/bc"
-py "
-import json
-m = json.load(open('$tmp/bc/model.json')); m['network']['selector_inputs'] = 75
-json.dump(m, open('$tmp/bc/model.json', 'w'))
-"
-"$imsynth" predict-params "$img" --model "$tmp/bc" 2> "$tmp/err"
+lying_model mc bc "m['network']['selector_inputs'] = 75"
 check "a model claiming 75 one-hot inputs" 1 $?
 expect_stderr "names the file and the field" "bc/model.json: \"network\".\"selector_inputs\" must be 76"
 # without --model: the bundled model, as predict and search use it
