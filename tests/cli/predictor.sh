@@ -10,6 +10,14 @@ root=$2
 . "$root/tests/cli/lib/harness.sh"
 quick=${IMSYNTH_TEST_QUICK:-}
 py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
+# killed_and_resumed DONE NEW OPTION: a 3-epoch fit with OPTION into $tmp/NEW, killed
+# after 0.7 s and rerun; true when its network is $tmp/DONE's (the uninterrupted run's)
+killed_and_resumed() {
+    "$imsynth" fit-predictor $fit --epochs 3 "$3" --threads 2 -o "$tmp/$2" &
+    pid=$!; sleep 0.7; kill -9 $pid 2> /dev/null; wait $pid 2> /dev/null
+    [ -d "$tmp/$2" ] || "$imsynth" fit-predictor $fit --epochs 3 "$3" --threads 2 -o "$tmp/$2"
+    cmp -s "$tmp/$1/network.safetensors" "$tmp/$2/network.safetensors"
+}
 # lying_model GOOD BAD STATEMENT: $tmp/BAD = a copy of model $tmp/GOOD whose model.json has
 # had the Python STATEMENT applied to it (as m); predict-params with it, stderr in $tmp/err
 lying_model() {
@@ -252,10 +260,7 @@ m = json.load(open('$tmp/ms/model.json'))
 assert m['transform']['texstats'] == 38 and m['network']['arch'].startswith('mlp:46-'), m['network']
 "
 check "texture statistics in the transform, 8 + 38 network inputs" 0 $?
-"$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 2 -o "$tmp/mk2" &
-pid=$!; sleep 0.7; kill -9 $pid 2> /dev/null; wait $pid 2> /dev/null
-[ -d "$tmp/mk2" ] || "$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 2 -o "$tmp/mk2"
-cmp -s "$tmp/ms/network.safetensors" "$tmp/mk2/network.safetensors"
+killed_and_resumed ms mk2 --texstats
 check "--texstats: killed and resumed equals uninterrupted" 0 $?
 "$imsynth" fit-predictor $fit --epochs 5000 --texstats -o "$tmp/mx" &
 pid=$!
@@ -281,10 +286,7 @@ expect_stderr "names the file and the field" "bs/model.json: \"transform\".\"tex
 # not the selectors' classes is refused
 "$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 1 -o "$tmp/mc"
 check "fit --conditional" 0 $?
-"$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 2 -o "$tmp/mc2" &
-pid=$!; sleep 0.7; kill -9 $pid 2> /dev/null; wait $pid 2> /dev/null
-[ -d "$tmp/mc2" ] || "$imsynth" fit-predictor $fit --epochs 3 --conditional --threads 2 -o "$tmp/mc2"
-cmp -s "$tmp/mc/network.safetensors" "$tmp/mc2/network.safetensors"
+killed_and_resumed mc mc2 --conditional
 check "--conditional: killed and resumed equals uninterrupted" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mc" -o "$tmp/pc.json" --top-k 4 \
     --hypotheses "$tmp/hc.json"
