@@ -649,6 +649,7 @@ typedef struct predict_options {
     const char *graph_path;   /* NULL: assets/supershader.json likewise */
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
     int top_k;                /* predictor hypotheses (8) */
+    double sample_hypotheses; /* 0: the top_k likeliest; T > 0: predictor_sample_hypotheses */
     int nearest;              /* catalogue candidates (8; 0: none) */
     refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
                                * colour_weight also scores the candidates and the final */

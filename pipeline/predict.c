@@ -447,6 +447,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* Data files. */
     if (!(pred = predictor_load(o->model_dir, err, errlen)))
         goto done;
+    predictor_sample_hypotheses(pred, o->sample_hypotheses);
     const char *model_dir = predictor_dir(pred);
     sc.graph_path = o->graph_path;
     if (!sc.graph_path) {
@@ -763,6 +764,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* hypotheses and samples passed over (each list's, before its last kept one) or merged
      * (a catalogue sample equal to a hypothesis) because another had their sub-shader */
     cJSON_AddNumberToObject(report, "candidates_merged", passed_over + n_cands - n_keep);
+    if (o->sample_hypotheses > 0)
+        cJSON_AddNumberToObject(report, "sample_hypotheses", o->sample_hypotheses);
     cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
     cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(rj, "budget", o->refine.budget);

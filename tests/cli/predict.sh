@@ -107,6 +107,23 @@ check "the colour phase: the curve under 12 first, the losses reported under 4" 
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --colour-phase -1 2> "$tmp/err"
 check "bad --colour-phase" 2 $?
 
+# --sample-hypotheses T: the predictor's candidates are its likeliest combination and drawn
+# ones: the same first one as the beam's, and less probable others; report.json says so
+"$imsynth" predict "$input" -o "$tmp/sb" $fast --light scene --nearest 0 --top-k 3 --refine 1 &&
+    "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 \
+        --refine 1 --sample-hypotheses 0.5
+check "predict --sample-hypotheses 0.5" 0 $?
+py - "$tmp/sb/report.json" "$tmp/ss/report.json" << 'PY'
+import json, sys
+b, s = (json.load(open(f)) for f in sys.argv[1:3])
+assert "sample_hypotheses" not in b and s["sample_hypotheses"] == 0.5, s.get("sample_hypotheses")
+pb = sorted((c["probability"] for c in b["candidates"]), reverse=True)
+ps = sorted((c["probability"] for c in s["candidates"]), reverse=True)
+assert len(pb) == len(ps) == 3 and ps[0] == pb[0], (pb, ps)
+assert sum(ps) < sum(pb), (pb, ps)
+PY
+check "sampled candidates: the likeliest first, the others drawn" 0 $?
+
 # --starts K: the K best scored candidates are raced (refine_race); the winner's search may
 # come from any of them, the curve is the best over all, the budget theirs together
 "$imsynth" predict "$input" -o "$tmp/st" $fast --light scene --refine 9 --starts 3
