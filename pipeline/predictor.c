@@ -574,11 +574,12 @@ void predictor_sample_hypotheses(predictor *p, double temperature)
     p->temperature = temperature > 0 ? temperature : 0;
 }
 
-/* Combinations drawn from the heads' distributions sharpened by the temperature (class c of
- * a head with probability proportional to p_c^(1/T)), after the likeliest one: up to k
- * distinct in out, in draw order, their logp under the heads. The draws are a pure
- * function of (draw, selector), so one image always gets the same hypotheses. */
-static int sample_combos(const predictor *p, int k, combo *out)
+/* The likeliest combination and others drawn from the heads' distributions sharpened by
+ * the temperature (class c of a head with probability proportional to p_c^(1/T)): up to k
+ * distinct in out, most probable first like likeliest_combos', their logp under the heads.
+ * The draws are a pure function of (draw, selector), so one image always gets the same
+ * hypotheses. */
+static int sampled_combos(const predictor *p, int k, combo *out)
 {
     const param_layout *L = &p->lay;
     int n = 0;
@@ -614,49 +615,28 @@ static int sample_combos(const predictor *p, int k, combo *out)
         if (!seen)
             out[n++] = c;
     }
+    for (int a = 1; a < n; a++) /* stable: the likeliest, drawn first, stays first */
+        for (int b = a; b > 0 && out[b].logp > out[b - 1].logp; b--) {
+            combo t = out[b];
+            out[b] = out[b - 1];
+            out[b - 1] = t;
+        }
     return n;
 }
 
-int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
-                      float *params, double *prob, char *err, size_t errlen)
+/* The k most probable combinations of independent heads (p->out), exactly, most probable
+ * first: a beam of width k over the selectors in turn (every prefix of a top-k combination
+ * is a top-k prefix, since extending a prefix only multiplies by probabilities <= 1 that
+ * do not depend on the prefix). Returns how many (min(k, combinations)), or -1 (out of
+ * memory). */
+static int likeliest_combos(const predictor *p, int k, combo *beam)
 {
-    if (k < 1)
-        return pipeline_error(err, errlen, "top-k: k must be at least 1");
-    if (p->ns && !texstats)
-        return pipeline_error(err, errlen, "%s: the model reads the image's texture statistics; "
-                                           "none were given",
-                              p->dir);
-    for (int j = 0; j < p->ns; j++)
-        if (!isfinite(texstats[j]))
-            return pipeline_error(err, errlen, "texture statistic %d is not finite", j);
-    if (reduce(p, descriptor, err, errlen))
-        return -1;
-    if (p->ns)
-        predictor_texstats_standardise(p->z + p->k, texstats, p->stats_mean, p->stats_std);
-    if (nn_mlp_forward(&p->net, p->z, 1, p->out))
-        return pipeline_error(err, errlen, "out of memory");
     const param_layout *L = &p->lay;
-    // The k most probable combinations of independent heads, exactly: a beam of width k
-    // over the selectors in turn (every prefix of a top-k combination is a top-k prefix,
-    // since extending a prefix only multiplies by probabilities <= 1 that do not depend on
-    // the prefix).
-    combo *beam = malloc(sizeof(combo) * (size_t)k), *next = NULL;
+    combo *next = NULL;
     int nb = 1, cap_next = 0;
-    if (!beam)
-        return pipeline_error(err, errlen, "out of memory");
-    beam[0].logp = 0;
+    beam[0] = (combo){0};
     int out_first = L->n_values, s = 0;
-    if (p->temperature > 0) {
-        nb = sample_combos(p, k, beam);
-        // ordered by probability like the beam's (stable: the likeliest stays first)
-        for (int a = 1; a < nb; a++)
-            for (int b = a; b > 0 && beam[b].logp > beam[b - 1].logp; b--) {
-                combo t = beam[b];
-                beam[b] = beam[b - 1];
-                beam[b - 1] = t;
-            }
-    }
-    for (int i = 0; i < L->n_params && !(p->temperature > 0); i++) {
+    for (int i = 0; i < L->n_params; i++) {
         if (L->role[i] != ROLE_SELECTOR)
             continue;
         int C = L->classes[i];
@@ -664,9 +644,8 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
             cap_next = nb * C;
             combo *nn = realloc(next, sizeof(combo) * (size_t)cap_next);
             if (!nn) {
-                free(beam);
                 free(next);
-                return pipeline_error(err, errlen, "out of memory");
+                return -1;
             }
             next = nn;
         }
@@ -694,6 +673,37 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         out_first += C;
         s++;
     }
+    free(next);
+    return nb;
+}
+
+int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
+                      float *params, double *prob, char *err, size_t errlen)
+{
+    if (k < 1)
+        return pipeline_error(err, errlen, "top-k: k must be at least 1");
+    if (p->ns && !texstats)
+        return pipeline_error(err, errlen, "%s: the model reads the image's texture statistics; "
+                                           "none were given",
+                              p->dir);
+    for (int j = 0; j < p->ns; j++)
+        if (!isfinite(texstats[j]))
+            return pipeline_error(err, errlen, "texture statistic %d is not finite", j);
+    if (reduce(p, descriptor, err, errlen))
+        return -1;
+    if (p->ns)
+        predictor_texstats_standardise(p->z + p->k, texstats, p->stats_mean, p->stats_std);
+    if (nn_mlp_forward(&p->net, p->z, 1, p->out))
+        return pipeline_error(err, errlen, "out of memory");
+    const param_layout *L = &p->lay;
+    combo *beam = malloc(sizeof(combo) * (size_t)k);
+    int nb = !beam                ? -1
+             : p->temperature > 0 ? sampled_combos(p, k, beam)
+                                  : likeliest_combos(p, k, beam);
+    if (nb < 0) {
+        free(beam);
+        return pipeline_error(err, errlen, "out of memory");
+    }
     // a conditional model: each hypothesis's values from a pass given its combination
     // (one batch of nb rows); otherwise every hypothesis has the values of the first pass
     int outputs = predictor_layout_outputs(L), width = p->k + p->ns + p->nc;
@@ -712,7 +722,6 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         if (bad) {
             free(given);
             free(beam);
-            free(next);
             return pipeline_error(err, errlen, "out of memory");
         }
     }
@@ -738,7 +747,6 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
     }
     free(given);
     free(beam);
-    free(next);
     return nb;
 }
 
