@@ -66,39 +66,6 @@ def r2_of(pv, Yt, At, Yv, Av, roles, vals):
     return lb.median_r2(lambda i, t, z: cols[i][Av[:, i]], Yt, At, Yv, Av, roles, vals)
 
 
-def mlp(n_in, n_out):
-    return torch.nn.Sequential(
-        torch.nn.Linear(n_in, 1024), torch.nn.LayerNorm(1024), torch.nn.ReLU(),
-        torch.nn.Dropout(0.5), torch.nn.Linear(1024, 1024), torch.nn.LayerNorm(1024),
-        torch.nn.ReLU(), torch.nn.Dropout(0.5), torch.nn.Linear(1024, n_out))
-
-
-def train(net, loss_of, n, epochs, val_loss):
-    """fit-predictor's schedule: AdamW 1e-3 / 1e-4, cosine, batch 128; returns the state of
-    the epoch of least validation loss."""
-    torch.manual_seed(1)
-    opt = torch.optim.AdamW(net.parameters(), 1e-3, weight_decay=1e-4)
-    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs * -(-n // 128))
-    best, state = np.inf, None
-    for _ in range(epochs):
-        net.train()
-        perm = torch.randperm(n)
-        for b in range(0, n, 128):
-            l = loss_of(perm[b:b + 128])
-            opt.zero_grad()
-            l.backward()
-            opt.step()
-            sched.step()
-        net.eval()
-        with torch.no_grad():
-            lv = val_loss()
-        if lv < best:
-            best, state = lv, {k: v.clone() for k, v in net.state_dict().items()}
-    net.load_state_dict(state)
-    net.eval()
-    return best
-
-
 def top_combos(probs, k):
     """The k likeliest combinations of independent heads (a beam, as predictor_predict)."""
     beam = [(0.0, ())]
@@ -160,7 +127,8 @@ def main():
     width = Vt.shape[1]
 
     # U: fit-predictor's network
-    U = mlp(Pt.shape[1], sum(nch) + width)
+    torch.manual_seed(1)  # the initial weights: the run is repeatable
+    U = lb.mlp(Pt.shape[1], sum(nch) + width)
 
     def u_loss(X, C, S, V, M, idx):
         o = U(X[idx])
@@ -174,8 +142,8 @@ def main():
         return ce / len(nch) + 10 * ((pv - V[idx]) ** 2 * M[idx]).sum() / M[idx].sum().clamp(min=1)
 
     allv = torch.arange(len(Pv))
-    train(U, lambda idx: u_loss(Pt, Ct, St, Vt, Mt, idx), len(Pt), a.epochs,
-          lambda: u_loss(Pv, Cv, Sv, Vv, Mv, allv).item())
+    lb.train(U, lambda idx: u_loss(Pt, Ct, St, Vt, Mt, idx), len(Pt), a.epochs,
+             lambda: u_loss(Pv, Cv, Sv, Vv, Mv, allv).item(), seed=1)
     with torch.no_grad():
         o = U(Pv)
     probs, k = [], 0
@@ -186,7 +154,8 @@ def main():
     acc = np.mean([(p.argmax(1) == Cv[:, s])[Av[:, sels[s]]].mean() for s, p in enumerate(probs)])
 
     # C: values given the one-hot combination
-    Cnet = mlp(Pt.shape[1] + sum(nch), width)
+    torch.manual_seed(1)  # the initial weights: the run is repeatable
+    Cnet = lb.mlp(Pt.shape[1] + sum(nch), width)
     gen = np.random.default_rng(2)
 
     def c_loss(X, C, V, M, idx, noise):
@@ -197,15 +166,16 @@ def main():
         pv = lb.squash(Cnet(torch.cat([X[idx], onehot(c)], 1)), roles, vals)
         return 10 * ((pv - V[idx]) ** 2 * M[idx]).sum() / M[idx].sum().clamp(min=1)
 
-    train(Cnet, lambda idx: c_loss(Pt, Ct, Vt, Mt, idx, a.noise), len(Pt), a.epochs,
-          lambda: c_loss(Pv, Cv, Vv, Mv, allv.numpy(), 0).item())
+    lb.train(Cnet, lambda idx: c_loss(Pt, Ct, Vt, Mt, idx, a.noise), len(Pt), a.epochs,
+             lambda: c_loss(Pv, Cv, Vv, Mv, allv.numpy(), 0).item(), seed=1)
 
     def c_vals(C):
         with torch.no_grad():
             return lb.squash(Cnet(torch.cat([Pv, onehot(C)], 1)), roles, vals).numpy()
 
     # S: one network, each row seen without and with its combination
-    Snet = mlp(Pt.shape[1] + sum(nch), sum(nch) + width)
+    torch.manual_seed(1)  # the initial weights: the run is repeatable
+    Snet = lb.mlp(Pt.shape[1] + sum(nch), sum(nch) + width)
     zeros_t, zeros_v = torch.zeros(len(Pt), sum(nch)), torch.zeros(len(Pv), sum(nch))
     OHt, OHv = onehot(Ct), onehot(Cv)
 
@@ -222,8 +192,8 @@ def main():
         VV, MM = torch.cat([V[idx], V[idx]], 0), torch.cat([M[idx], M[idx]], 0)
         return ce / len(nch) + 10 * ((pv - VV) ** 2 * MM).sum() / MM.sum().clamp(min=1)
 
-    train(Snet, lambda idx: s_loss(Pt, zeros_t, OHt, Ct, St, Vt, Mt, idx), len(Pt), a.epochs,
-          lambda: s_loss(Pv, zeros_v, OHv, Cv, Sv, Vv, Mv, allv).item())
+    lb.train(Snet, lambda idx: s_loss(Pt, zeros_t, OHt, Ct, St, Vt, Mt, idx), len(Pt), a.epochs,
+             lambda: s_loss(Pv, zeros_v, OHv, Cv, Sv, Vv, Mv, allv).item(), seed=1)
 
     def s_vals(C):
         with torch.no_grad():

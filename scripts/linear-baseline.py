@@ -79,6 +79,44 @@ def squash(o, roles, vals):
     return torch.stack(cols, 1)
 
 
+def mlp(n_in, n_out):
+    """fit-predictor's network: 1024-1024, LayerNorm, ReLU, dropout 0.5."""
+    import torch
+    return torch.nn.Sequential(
+        torch.nn.Linear(n_in, 1024), torch.nn.LayerNorm(1024), torch.nn.ReLU(),
+        torch.nn.Dropout(0.5), torch.nn.Linear(1024, 1024), torch.nn.LayerNorm(1024),
+        torch.nn.ReLU(), torch.nn.Dropout(0.5), torch.nn.Linear(1024, n_out))
+
+
+def train(net, loss_of, n, epochs, val_loss, seed=None):
+    """fit-predictor's schedule: AdamW 1e-3 / 1e-4, cosine, batch 128, loss_of(batch
+    indexes) on n rows; leaves net (in eval mode) at the epoch of least val_loss() and
+    returns that loss. seed: torch's generator reseeded first (None: as the caller left it)."""
+    import torch
+    if seed is not None:
+        torch.manual_seed(seed)
+    opt = torch.optim.AdamW(net.parameters(), 1e-3, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs * -(-n // 128))
+    best, state = np.inf, None
+    for _ in range(epochs):
+        net.train()
+        perm = torch.randperm(n)
+        for b in range(0, n, 128):
+            l = loss_of(perm[b:b + 128])
+            opt.zero_grad()
+            l.backward()
+            opt.step()
+            sched.step()
+        net.eval()
+        with torch.no_grad():
+            lv = val_loss()
+        if lv < best:
+            best, state = lv, {k: v.clone() for k, v in net.state_dict().items()}
+    net.load_state_dict(state)
+    net.eval()
+    return best
+
+
 def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
     """fit-predictor's network and loss in PyTorch (1024-1024, LayerNorm, ReLU, dropout 0.5,
     AdamW 1e-3 / 1e-4, cosine schedule, batch 128, value weight 10); the median R^2 at the
@@ -89,12 +127,7 @@ def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
     sels = [i for i, r in enumerate(roles) if r == 'selector']
     nch = [int(names[i].split()[1]) for i in sels]
     width = sum(2 if roles[i] == 'hue' else 1 for i in vals)
-    net = torch.nn.Sequential(
-        torch.nn.Linear(Ft.shape[1], 1024), torch.nn.LayerNorm(1024), torch.nn.ReLU(),
-        torch.nn.Dropout(0.5), torch.nn.Linear(1024, 1024), torch.nn.LayerNorm(1024),
-        torch.nn.ReLU(), torch.nn.Dropout(0.5), torch.nn.Linear(1024, sum(nch) + width))
-    opt = torch.optim.AdamW(net.parameters(), 1e-3, weight_decay=1e-4)
-    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs * -(-len(Ft) // 128))
+    net = mlp(Ft.shape[1], sum(nch) + width)
 
     def targets(Y, A):
         Y, A = torch.tensor(Y), torch.tensor(A.astype(np.float32))
@@ -123,30 +156,16 @@ def mlp_r2(Ft, Fv, Yt, At, Yv, Av, roles, names, vals, epochs=30):
 
     Xt, Xv = torch.tensor(Ft, dtype=torch.float32), torch.tensor(Fv, dtype=torch.float32)
     Tt, Tv = targets(Yt, At), targets(Yv, Av)
-    best = (np.inf, None)
-    for _ in range(epochs):
-        net.train()
-        perm = torch.randperm(len(Xt))
-        for b in range(0, len(Xt), 128):
-            idx = perm[b:b + 128]
-            l, _ = loss(Xt[idx], Tt, idx)
-            opt.zero_grad()
-            l.backward()
-            opt.step()
-            sched.step()
-        net.eval()
-        with torch.no_grad():
-            lv, pv = loss(Xv, Tv, torch.arange(len(Xv)))
-        if lv.item() < best[0]:
-            pv = pv.numpy()
-            cols, j = {}, 0
-            for i in vals:
-                w = 2 if roles[i] == 'hue' else 1
-                cols[i] = pv[:, j:j + w]
-                j += w
-            best = (lv.item(), median_r2(lambda i, t, z: cols[i][Av[:, i]], Yt, At, Yv, Av,
-                                         roles, vals))
-    return best[1]
+    train(net, lambda idx: loss(Xt[idx], Tt, idx)[0], len(Xt), epochs,
+          lambda: loss(Xv, Tv, torch.arange(len(Xv)))[0].item())
+    with torch.no_grad():
+        pv = loss(Xv, Tv, torch.arange(len(Xv)))[1].numpy()
+    cols, j = {}, 0
+    for i in vals:
+        w = 2 if roles[i] == 'hue' else 1
+        cols[i] = pv[:, j:j + w]
+        j += w
+    return median_r2(lambda i, t, z: cols[i][Av[:, i]], Yt, At, Yv, Av, roles, vals)
 
 
 def main():
