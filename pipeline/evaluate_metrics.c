@@ -151,3 +151,19 @@ double evaluate_spread(const double *pred, const double *truth, size_t n)
     double vt = variance(truth, n);
     return vt > 0.0 ? sqrt(variance(pred, n) / vt) : NAN;
 }
+
+void evaluate_share_interval(size_t k, size_t n, double *lo, double *hi)
+{
+    if (n == 0) {
+        *lo = *hi = NAN;
+        return;
+    }
+    /* Solving |k/n - p| = z sqrt(p (1 - p) / n) for p: a quadratic whose two roots are
+     * centre -+ half. z: the standard normal's 0.975 quantile. */
+    const double z = 1.959963984540054;
+    double nn = (double)n, p = (double)k / nn, z2n = z * z / nn;
+    double centre = (p + z2n / 2.0) / (1.0 + z2n);
+    double half = z / (1.0 + z2n) * sqrt(p * (1.0 - p) / nn + z2n / (4.0 * nn));
+    *lo = k == 0 ? 0.0 : centre - half; /* exact ends: no rounding past them */
+    *hi = k == n ? 1.0 : centre + half;
+}

@@ -596,6 +596,13 @@ double evaluate_spread(const double *pred, const double *truth, size_t n);
  * converges to), so R^2 >= 0.3 and s >= 0.7 together need r >= 0.564. NAN when either
  * does not vary. */
 double evaluate_correlation(const double *pred, const double *truth, size_t n);
+/* The 95% Wilson score interval of a share of k successes in n trials ("beats the mean on
+ * k of n inputs"): the shares p for which k / n lies within 1.96 standard errors
+ * sqrt(p (1 - p) / n) of p. Unlike the normal approximation around k / n, it stays inside
+ * [0, 1] and is not empty at k = 0 or k = n. It says how far a share measured on n inputs
+ * may be from the share on all inputs like them: the sampling of the inputs only, not the
+ * variation between training runs or render seeds. lo = hi = NAN when n is 0. */
+void evaluate_share_interval(size_t k, size_t n, double *lo, double *hi);
 
 typedef struct evaluate_options {
     const char *model_dir;    /* written by predictor_fit */

@@ -3,7 +3,7 @@
     python3 tests/bench/evaluation_table.py REPORT_DIR [REPORT_DIR ...]
 
 Prints, per input set, every method's normalised distances as "median [p10, p90]" and the
-shares of inputs on which it beats the mean / nearest, then the targets of each report.
+shares of inputs on which it beats the mean / nearest, then the targets of each report (a share's with its 95% interval).
 Reads report.json only (its "sets" and "targets"), so the figures are the report's own.
 """
 import json
@@ -31,13 +31,15 @@ def main(dirs):
                                                       cell(m["vgg19"]), cell(m["colour"])))
         targets += r.get("targets", [])
     print()
-    print("| target | figure | needed | status |")
-    print("|---|---|---|---|")
+    print("| target | figure | 95% interval | needed | status |")
+    print("|---|---|---|---|---|")
     for t in targets:
         fig = t.get("figure")
         if fig is None:
             continue
-        print("| %s | %.3f | %.2f | %s |" % (t["what"], fig, t["threshold"], t["status"]))
+        ci = "%.3f - %.3f" % tuple(t["interval95"]) if t.get("interval95") else ""
+        print("| %s | %.3f | %s | %.2f | %s |" % (t["what"], fig, ci, t["threshold"],
+                                                  t["status"]))
 
 
 if __name__ == "__main__":

@@ -92,6 +92,18 @@ check "refinement never ends worse than its start" 0 $?
 awk -F, '$2 == "mean" && $4 == "value" && $9 !~ /nan/ && $9 != 0 { print; bad = 1 } END { exit bad }' \
     "$tmp/r2/summary.csv"
 check "the mean method's R^2 is 0" 0 $?
+# A share of inputs comes with its 95% interval around it; other figures have none.
+py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
+py "
+import json, sys
+r = json.load(open(sys.argv[1]))
+shares = [t for t in r['targets'] if 'beats' in t['what']]
+assert shares and all(t['interval95'][0] <= t['figure'] <= t['interval95'][1] for t in shares)
+assert all('interval95' not in t for t in r['targets'] if 'R^2' in t['what'])
+s = r['sets']['synthetic']['image_space']['predictor']['vgg19']
+assert s['beats_mean_interval95'][0] <= s['beats_mean'] <= s['beats_mean_interval95'][1]
+" "$tmp/r2/report.json"
+check "shares of inputs with their 95% intervals" 0 $?
 if [ -z "$quick" ]; then
     grep -q 'render.exr vs shifted.exr' "$tmp/r2/report.json"
     check "the flash input takes the plain pair's floor" 0 $?

@@ -2,8 +2,9 @@
  * The evaluation's arithmetic (pipeline.h, "evaluation"): the Gram distance (0 for equal,
  * symmetric, scale-free per layer, a small case worked by hand), the colour term, the floor's
  * epsilon, quantiles against numpy's linear rule, R^2 (1 for the truth, 0 for the reference
- * mean, below 0 for any other constant), the spread; the contact sheet's font; a stored
- * view's settings and scene (the scene candidates are rendered in).
+ * mean, below 0 for any other constant), the spread, a share's 95% interval against scipy's;
+ * the contact sheet's font; a stored view's settings and scene (the scene candidates are
+ * rendered in).
  */
 #include <math.h>
 #include <setjmp.h>
@@ -164,6 +165,37 @@ static void test_quantiles(void **state)
     assert_true(isnan(evaluate_quantile(nans, 2, 0.5)));
 }
 
+static void test_share_interval(void **state)
+{
+    (void)state;
+    /* scipy.stats.binomtest(k, n).proportion_ci(0.95, method="wilson") (scipy 1.10). */
+    const struct {
+        size_t k, n;
+        double lo, hi;
+    } ref[] = {
+        {35, 48, 0.5900303501775939, 0.8343404237254355},
+        {46, 48, 0.8602434412954456, 0.9884981065106133},
+        {18, 22, 0.6148339256287346, 0.9269311541657795},
+        {0, 10, 0.0, 0.27753279986288926},
+        {10, 10, 0.7224672001371109, 1.0},
+    };
+    for (size_t i = 0; i < sizeof ref / sizeof ref[0]; i++) {
+        double lo, hi;
+        evaluate_share_interval(ref[i].k, ref[i].n, &lo, &hi);
+        assert_true(fabs(lo - ref[i].lo) < 1e-12);
+        assert_true(fabs(hi - ref[i].hi) < 1e-12);
+        double p = (double)ref[i].k / (double)ref[i].n;
+        assert_true(lo <= p && p <= hi);
+    }
+    /* More inputs, the same share: a narrower interval. */
+    double lo1, hi1, lo2, hi2;
+    evaluate_share_interval(7, 10, &lo1, &hi1);
+    evaluate_share_interval(70, 100, &lo2, &hi2);
+    assert_true(hi2 - lo2 < hi1 - lo1);
+    evaluate_share_interval(0, 0, &lo1, &hi1);
+    assert_true(isnan(lo1) && isnan(hi1));
+}
+
 static void test_r2_and_spread(void **state)
 {
     (void)state;
@@ -289,7 +321,7 @@ int main(void)
         cmocka_unit_test(test_gram_distance),  cmocka_unit_test(test_colour_distance),
         cmocka_unit_test(test_floor_epsilon),  cmocka_unit_test(test_quantiles),
         cmocka_unit_test(test_r2_and_spread),  cmocka_unit_test(test_sheet_label),
-        cmocka_unit_test(test_view_parse),
+        cmocka_unit_test(test_view_parse),     cmocka_unit_test(test_share_interval),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
