@@ -9,8 +9,13 @@ them.
 With more pairs (one per input set, say), the counts are summed over the pairs. --methods
 compares those rows instead of the -refine ones (e.g. predictor,predictor-topk for two
 models evaluated on the same inputs).
+
+"sign test p": the two-sided exact sign test of "B is closer as often as A", inputs where
+the two are equal left out: the chance of a count at least this far from half if B and A
+were interchangeable. It asks nothing of the size of the differences.
 """
 import csv
+import math
 import statistics
 import sys
 
@@ -21,6 +26,16 @@ def load(report):
         for r in csv.DictReader(f):
             out[(r["set"], r["input"], r["method"], r["distance"])] = float(r["normalised"])
     return out
+
+
+def sign_test(wins, losses):
+    """Two-sided exact binomial test of wins against wins + losses at p = 1/2."""
+    n = wins + losses
+    if n == 0:
+        return float("nan")
+    k = min(wins, losses)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n
+    return min(1.0, 2 * tail)
 
 
 def main(argv):
@@ -39,11 +54,12 @@ def main(argv):
             if wanted and key in b and va > 0:
                 ratios.setdefault((m, d), []).append(b[key] / va)
     print(f"B = {' '.join(argv[1::2])} against A = {' '.join(argv[0::2])}")
-    print("| row | distance | inputs | B better | median B / A |")
-    print("|---|---|---:|---:|---:|")
+    print("| row | distance | inputs | B better | median B / A | sign test p |")
+    print("|---|---|---:|---:|---:|---:|")
     for (m, d), v in sorted(ratios.items()):
-        better = sum(x < 1 for x in v)
-        print(f"| {m} | {d} | {len(v)} | {better} | {statistics.median(v):.3f} |")
+        better, worse = sum(x < 1 for x in v), sum(x > 1 for x in v)
+        print(f"| {m} | {d} | {len(v)} | {better} | {statistics.median(v):.3f} "
+              f"| {sign_test(better, worse):.3g} |")
 
 
 if __name__ == "__main__":
