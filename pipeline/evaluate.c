@@ -112,6 +112,8 @@ typedef struct result {
     char err[768];
     float *chosen;                      /* N_METHODS x n_params */
     int chosen_index[N_METHODS];        /* which candidate */
+    int start_index[N_METHODS];         /* -topk and -refine rows: the -topk candidate the
+                                         * refinement starts from (predict's choice) */
     int n_candidates[N_METHODS];
     long long chosen_id[N_METHODS];     /* the catalogue id (random, nearest), else -1 */
     double dist[N_METHODS][N_DIST], norm[N_METHODS][N_DIST];
@@ -364,6 +366,17 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
 
 /* ---------------------------------------------------------------- refinement ------ */
 
+/* Inserts index j into order[0..j), kept ascending by key[] (NaN last), ties after the
+ * earlier: an insertion sort's step, for the few candidates of an input. */
+static void insert_by_key(int *order, int j, const double *key)
+{
+    double k = isnan(key[j]) ? INFINITY : key[j];
+    int b = j;
+    for (; b > 0 && k < (isnan(key[order[b - 1]]) ? INFINITY : key[order[b - 1]]); b--)
+        order[b] = order[b - 1];
+    order[b] = j;
+}
+
 /* The refinement's loss, predict's (pipeline_refine_loss): the training descriptor's Gram
  * distance and the colour term of a render at the refine preset and the input's seed.
  * Proposals are not kept as candidates (a search renders tens of them); the result is
@@ -477,6 +490,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
             }
             memcpy(r->chosen + (size_t)m * np, c->params, np * sizeof(float));
             r->chosen_index[m] = rr.accepted;
+            r->start_index[m] = r->start_index[from];
             r->n_candidates[m] = rr.evals;
             r->chosen_id[m] = -1;
             if (in->sheet_row >= 0 && tile_of(sh, &c->img, &r->tiles[1 + m]))
@@ -503,31 +517,33 @@ static int evaluate_input(worker *w, const input *in, result *r)
             }
         }
         /* The pick: the first, or the candidate whose render is nearest the input under the
-         * training descriptor (ties: the earlier, i.e. the likelier or nearer). */
-        int order[256] = {0};
-        double dist[256];
+         * training descriptor (issue 15's -topk row; ties: the earlier, i.e. the likelier or
+         * nearer). The refinement starts where predict's would: from the candidates best by
+         * predict's loss, G + colour_weight C (predict.c, "combine"), which is the pick
+         * when the colour weight is 0. */
+        int order[256] = {0}, by_loss[256] = {0};
+        double dist[256], loss[256];
         for (int j = 0; j < n && methods[m].topk; j++) {
             candidate *c = candidate_get(&iw, buf + (size_t)j * np, err, errlen);
-            if (!c || describe(w, sh->train, &c->img, &c->desc[sh->train], err, errlen)) {
+            double colour = NAN;
+            if (!c || describe(w, sh->train, &c->img, &c->desc[sh->train], err, errlen) ||
+                evaluate_colour_distance(&c->img, &in->img, &colour, err, errlen)) {
                 rc = -1;
                 break;
             }
-            double d = evaluate_gram_distance(iw.in_desc[sh->train], c->desc[sh->train],
-                                              w->offsets[sh->train], w->n_layers[sh->train]);
-            if (isnan(d))
-                d = INFINITY;
-            int b = j; /* order[0..j]: by distance, ties after the earlier */
-            for (; b > 0 && d < dist[order[b - 1]]; b--)
-                order[b] = order[b - 1];
-            order[b] = j;
-            dist[j] = d;
+            dist[j] = evaluate_gram_distance(iw.in_desc[sh->train], c->desc[sh->train],
+                                             w->offsets[sh->train], w->n_layers[sh->train]);
+            loss[j] = pipeline_refine_loss(dist[j], colour, o->refine.colour_weight);
+            insert_by_key(order, j, dist);
+            insert_by_key(by_loss, j, loss);
         }
         if (rc)
             break;
         int best = order[0];
+        r->start_index[m] = by_loss[0];
         n_ranked[m] = !methods[m].topk ? 1 : n < n_starts ? n : n_starts;
         for (int j = 0; j < n_ranked[m]; j++)
-            memcpy(ranked + ((size_t)m * n_starts + j) * np, buf + (size_t)order[j] * np,
+            memcpy(ranked + ((size_t)m * n_starts + j) * np, buf + (size_t)by_loss[j] * np,
                    np * sizeof(float));
         candidate *c = candidate_get(&iw, buf + (size_t)best * np, err, errlen);
         if (!c || distances(&iw, &c->img, c->desc, r->dist[m], err, errlen)) {
@@ -1235,6 +1251,8 @@ static cJSON *report_json(const report_ctx *c)
             cJSON *x = cJSON_AddObjectToObject(mo, methods[m].name);
             cJSON_AddNumberToObject(x, "candidates", rec->r.n_candidates[m]);
             cJSON_AddNumberToObject(x, "chosen", rec->r.chosen_index[m]);
+            if (methods[m].refines)
+                cJSON_AddNumberToObject(x, "start", rec->r.start_index[m]);
             if (rec->r.chosen_id[m] >= 0)
                 cJSON_AddNumberToObject(x, "catalogue_id", (double)rec->r.chosen_id[m]);
             cJSON_AddItemToObject(x, "raw", distances_json(rec->r.dist[m]));

@@ -134,6 +134,23 @@ if [ -z "$quick" ]; then
     grep -q '"colour_phase":[[:space:]]*2' "$tmp/rc/report.json" &&
         grep -q '"colour_weight":[[:space:]]*0' "$tmp/rc/report.json"
     check "report.json names the loss options" 0 $?
+    # A -refine row starts from the candidate predict would pick, by G + w C: with w = 0
+    # that is the -topk row's pick (by G), and it is always one of the -topk candidates.
+    start_check='
+import json, sys
+r = json.load(open(sys.argv[1]))
+same = sys.argv[2] == "same"
+for i in r["inputs"]:
+    m = i["methods"]
+    for t in ("nearest", "predictor"):
+        start, pick = m[t + "-refine"]["start"], m[t + "-topk"]
+        assert 0 <= start < pick["candidates"], (i, t)
+        assert not same or start == pick["chosen"], (i, t, start, pick["chosen"])
+'
+    py "$start_check" "$tmp/rc/report.json" same
+    check "with colour weight 0 the refinement starts from the -topk pick" 0 $?
+    py "$start_check" "$tmp/r2/report.json" any
+    check "the refinement starts from a -topk candidate" 0 $?
     # --starts: the -refine rows race their -topk method's best picks, within --refine
     "$imsynth" evaluate $ev --starts 2 -o "$tmp/rk" > /dev/null 2>&1
     check "evaluate, --starts 2" 0 $?
