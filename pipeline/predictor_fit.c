@@ -675,7 +675,11 @@ static char *state_json(const char *settings, const run_state *s)
     cJSON_AddItemToObject(j, "settings", cJSON_Parse(settings));
     cJSON_AddNumberToObject(j, "epochs_done", s->epochs_done);
     cJSON_AddNumberToObject(j, "best_epoch", s->best_epoch);
-    cJSON_AddNumberToObject(j, "best_val_loss", s->best_val);
+    // null until an epoch has a finite validation loss (cJSON would print infinity as null
+    // anyway; state_read takes it back as infinity)
+    cJSON_AddItemToObject(j, "best_val_loss", isfinite(s->best_val)
+                                                  ? cJSON_CreateNumber(s->best_val)
+                                                  : cJSON_CreateNull());
     cJSON *h = cJSON_AddArrayToObject(j, "history");
     for (int e = 0; e < s->epochs_done; e++) {
         cJSON *r = cJSON_CreateArray();
@@ -705,12 +709,12 @@ static int state_read(const char *path, const char *settings, run_state *s, int 
         const cJSON *be = cJSON_GetObjectItemCaseSensitive(j, "best_epoch");
         const cJSON *bv = cJSON_GetObjectItemCaseSensitive(j, "best_val_loss");
         const cJSON *h = cJSON_GetObjectItemCaseSensitive(j, "history");
-        if (cJSON_IsNumber(done) && cJSON_IsNumber(be) && cJSON_IsNumber(bv) &&
-            done->valueint >= 0 && done->valueint <= epochs &&
-            cJSON_GetArraySize(h) == done->valueint) {
+        if (cJSON_IsNumber(done) && cJSON_IsNumber(be) &&
+            (cJSON_IsNumber(bv) || cJSON_IsNull(bv)) && done->valueint >= 0 &&
+            done->valueint <= epochs && cJSON_GetArraySize(h) == done->valueint) {
             s->epochs_done = done->valueint;
             s->best_epoch = be->valueint;
-            s->best_val = bv->valuedouble;
+            s->best_val = cJSON_IsNull(bv) ? INFINITY : bv->valuedouble;
             for (int e = 0; e < s->epochs_done; e++) {
                 const cJSON *r = cJSON_GetArrayItem(h, e);
                 s->train_loss[e] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 0));

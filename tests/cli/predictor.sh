@@ -271,6 +271,19 @@ wait $pid 2> /dev/null
 "$imsynth" fit-predictor $fit --epochs 5000 -o "$tmp/mx" 2> "$tmp/err"
 check "a run without --texstats does not continue one with it" 1 $?
 expect_stderr "says how to go on" "restart"
+# A kill after the transform is written but before the first epoch ends leaves a state
+# with no best validation loss yet (null): that run resumes, and equals the uninterrupted
+# one. The window is too short to hit with a timed kill: the killed run's state is put back
+# to it (and to 3 epochs), as a kill there would have left it.
+py "
+import json
+p = '$tmp/mx.partial/state.json'; s = json.load(open(p))
+s['settings']['epochs'] = 3; s.update(epochs_done=0, best_epoch=0, best_val_loss=None, history=[])
+json.dump(s, open(p, 'w'))
+"
+"$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 2 -o "$tmp/mx" 2> "$tmp/err" &&
+    cmp -s "$tmp/ms/network.safetensors" "$tmp/mx/network.safetensors"
+check "killed before the first epoch ended: resumed equals uninterrupted" 0 $?
 img2="$root/tests/reference/render/supershader_s2/blender-4.3-a.exr"
 "$imsynth" predict-params "$img" --model "$tmp/ms" -o "$tmp/ps1.json" &&
     "$imsynth" predict-params "$img2" --model "$tmp/ms" -o "$tmp/ps2.json"
