@@ -366,17 +366,6 @@ static int source_candidates(input_work *iw, source src, int k, const float *des
 
 /* ---------------------------------------------------------------- refinement ------ */
 
-/* Inserts index j into order[0..j), kept ascending by key[] (NaN last), ties after the
- * earlier: an insertion sort's step, for the few candidates of an input. */
-static void insert_by_key(int *order, int j, const double *key)
-{
-    double k = isnan(key[j]) ? INFINITY : key[j];
-    int b = j;
-    for (; b > 0 && k < (isnan(key[order[b - 1]]) ? INFINITY : key[order[b - 1]]); b--)
-        order[b] = order[b - 1];
-    order[b] = j;
-}
-
 /* The refinement's loss, predict's (pipeline_refine_loss): the training descriptor's Gram
  * distance and the colour term of a render at the refine preset and the input's seed.
  * Proposals are not kept as candidates (a search renders tens of them); the result is
@@ -534,8 +523,8 @@ static int evaluate_input(worker *w, const input *in, result *r)
             dist[j] = evaluate_gram_distance(iw.in_desc[sh->train], c->desc[sh->train],
                                              w->offsets[sh->train], w->n_layers[sh->train]);
             loss[j] = pipeline_refine_loss(dist[j], colour, o->refine.colour_weight);
-            insert_by_key(order, j, dist);
-            insert_by_key(by_loss, j, loss);
+            pipeline_insert_by_key(order, j, dist);
+            pipeline_insert_by_key(by_loss, j, loss);
         }
         if (rc)
             break;

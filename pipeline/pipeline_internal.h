@@ -15,6 +15,10 @@ int pipeline_error(char *err, size_t errlen, const char *fmt, ...)
 /* Seconds on the monotonic clock. */
 double pipeline_now(void);
 
+/* Inserts index j into order[0..j), kept ascending by key[] (NaN last; ties: the earlier
+ * index first): one step of an insertion sort, for ranking an input's few candidates. */
+void pipeline_insert_by_key(int *order, int j, const double *key);
+
 /* SplitMix64 (Steele, Lea and Flood 2014): the next of a seeded stream of 64-bit values,
  * for datagen's augmentation and the evaluation's draws. */
 static inline uint64_t pipeline_splitmix64(uint64_t *state)

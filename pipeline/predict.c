@@ -424,6 +424,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     double *prob = NULL, *ndist = NULL;
     size_t *nindex = NULL;
     int *keep = NULL, *order = NULL;
+    double *start_loss = NULL;
     float *starts = NULL;
     refine_kind *kind = NULL;
     int *choices = NULL;
@@ -614,22 +615,23 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     order = malloc((size_t)n_keep * sizeof *order);
     kind = malloc((size_t)np * sizeof *kind);
     choices = malloc((size_t)np * sizeof *choices);
-    if (order) {
-        for (int j = 0; j < n_keep; j++) /* by loss in the winner's scene; ties: earlier */
-            if (isfinite(cands[keep[j]].loss[best_scene])) {
-                int b = n_starts++;
-                for (; b > 0 && cands[keep[j]].loss[best_scene] <
-                                    cands[order[b - 1]].loss[best_scene];
-                     b--)
-                    order[b] = order[b - 1];
-                order[b] = keep[j];
-            }
+    start_loss = malloc((size_t)n_keep * sizeof *start_loss);
+    if (order && start_loss) {
+        /* By loss in the winner's scene (ties: the earlier); those without one last, cut. */
+        for (int j = 0; j < n_keep; j++) {
+            double l = cands[keep[j]].loss[best_scene];
+            start_loss[j] = isfinite(l) ? l : NAN;
+            n_starts += isfinite(l);
+            pipeline_insert_by_key(order, j, start_loss);
+        }
+        for (int b = 0; b < n_starts; b++)
+            order[b] = keep[order[b]];
         assert(n_starts >= 1 && order[0] == best_k);
         if (n_starts > o->refine.starts)
             n_starts = o->refine.starts;
         starts = malloc((size_t)n_starts * (size_t)np * sizeof(float));
     }
-    if (!order || !kind || !choices || !starts) {
+    if (!order || !start_loss || !kind || !choices || !starts) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -856,6 +858,7 @@ done:
     free(ndist);
     free(keep);
     free(order);
+    free(start_loss);
     free(starts);
     free(best);
     free(sc.target_desc);

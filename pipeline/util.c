@@ -32,6 +32,15 @@ double pipeline_now(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+void pipeline_insert_by_key(int *order, int j, const double *key)
+{
+    double k = isnan(key[j]) ? INFINITY : key[j];
+    int b = j;
+    for (; b > 0 && k < (isnan(key[order[b - 1]]) ? INFINITY : key[order[b - 1]]); b--)
+        order[b] = order[b - 1];
+    order[b] = j;
+}
+
 char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen)
 {
     FILE *f = fopen(path, "rb");

@@ -315,6 +315,20 @@ static void test_view_parse(void **state)
     assert_int_equal(pipeline_view_parse(NULL, &v, err, sizeof err), -1);
 }
 
+static void test_insert_by_key(void **state)
+{
+    (void)state;
+    /* Ascending, NaN after every number, ties in index order (a stable sort): the order
+     * predict's starts and evaluate's -topk / -refine picks rely on. */
+    const double key[7] = {3, NAN, 1, 3, -INFINITY, NAN, 1};
+    const int want[7] = {4, 2, 6, 0, 3, 1, 5};
+    int order[7];
+    for (int j = 0; j < 7; j++)
+        pipeline_insert_by_key(order, j, key);
+    for (int j = 0; j < 7; j++)
+        assert_int_equal(order[j], want[j]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -322,6 +336,7 @@ int main(void)
         cmocka_unit_test(test_floor_epsilon),  cmocka_unit_test(test_quantiles),
         cmocka_unit_test(test_r2_and_spread),  cmocka_unit_test(test_sheet_label),
         cmocka_unit_test(test_view_parse),     cmocka_unit_test(test_share_interval),
+        cmocka_unit_test(test_insert_by_key),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
