@@ -18,7 +18,8 @@ static const char *const help =
     "Sources:\n"
     "  --model DIR       a model's catalogue (default: the bundled assets/model): the\n"
     "                    retrieval predict uses (Euclidean in the model's whitened PCA\n"
-    "                    space); hits are rendered at --preset\n"
+    "                    space); hits are rendered at --preset. --catalogue DIR is the\n"
+    "                    same option\n"
     "  --dataset DS      every row of a dataset with a whole MobileNetV2 or VGG19\n"
     "                    descriptor: the Gram distance; its stored renders are shown\n"
     "\n"
@@ -69,7 +70,7 @@ int cmd_search(int argc, char **argv)
             o.sheet_path = val;
         else if (!strcmp(a, "--json"))
             o.json_path = val;
-        else if (!strcmp(a, "--model"))
+        else if (!strcmp(a, "--model") || !strcmp(a, "--catalogue"))
             o.model_dir = val;
         else if (!strcmp(a, "--dataset"))
             o.dataset_path = val;
@@ -95,7 +96,7 @@ int cmd_search(int argc, char **argv)
         return EXIT_USAGE;
     }
     if (o.model_dir && o.dataset_path) {
-        cli_error(sub, "--model and --dataset are two sources; give one");
+        cli_error(sub, "--model (--catalogue) and --dataset are two sources; give one");
         return EXIT_USAGE;
     }
     char err[1024];

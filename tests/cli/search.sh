@@ -37,6 +37,10 @@ check "search a catalogue" 0 $?
 [ -s "$tmp/s2.png" ] && [ ! -s "$tmp/out" ]; check "catalogue sheet written, --quiet prints nothing" 0 $?
 py -c "import json,sys; d=[x['distance'] for x in json.load(open(sys.argv[1]))['hits']]; assert len(d)==4 and d==sorted(d), d" "$tmp/h2.json"
 check "catalogue hits ordered" 0 $?
+"$imsynth" search "$tmp/r5.exr" --catalogue "$tmp/model" -k 4 --preset draft -o "$tmp/s3.png" \
+    --json "$tmp/h3.json" --quiet
+check "--catalogue names the same source" 0 $?
+cmp -s "$tmp/h2.json" "$tmp/h3.json"; check "--catalogue finds what --model finds" 0 $?
 
 "$imsynth" datagen --out "$tmp/nodesc.sqlite" --count 2 --preset draft --descriptor none --quiet
 "$imsynth" search "$tmp/r5.exr" --dataset "$tmp/nodesc.sqlite" -o "$tmp/x.png" 2> "$tmp/err"
@@ -45,4 +49,6 @@ expect_stderr "says why" "nodesc.sqlite: stores no whole"
 [ ! -e "$tmp/x.png" ]; check "no sheet left" 0 $?
 "$imsynth" search "$tmp/r5.exr" --dataset "$tmp/ds.sqlite" --model "$tmp/model" -o "$tmp/x.png" 2> "$tmp/err"
 check "two sources is a usage error" 2 $?
+"$imsynth" search "$tmp/r5.exr" --dataset "$tmp/ds.sqlite" --catalogue "$tmp/model" -o "$tmp/x.png" 2> "$tmp/err"
+check "--catalogue with --dataset too" 2 $?
 finish
