@@ -71,6 +71,8 @@ static const char *const help =
     "  --colour-weight W     the -refine rows' loss G + W C (default 4, predict's)\n"
     "  --colour-phase N      their first N renders weigh C --colour-phase-weight\n"
     "                        (default 12) instead (default N 0, predict's)\n"
+    "  --start-colour-weight W  a -refine row starts from its -topk method's candidate\n"
+    "                        best by G + W C (default 4, predict's)\n"
     "  --starts K            race the -topk method's K best picks (default 1, predict's)\n"
     "  --refine-preset NAME  the -refine rows' search renders (default draft, predict's);\n"
     "                        their results are rendered and measured at --preset\n"

@@ -55,6 +55,8 @@ static const char *const help =
     "  --colour-weight W      weight of the colour term (default 4)\n"
     "  --colour-phase N       the refinement's first N renders weigh it\n"
     "                         --colour-phase-weight (default 12) instead (default N 0)\n"
+    "  --start-colour-weight W  the candidates' ranking as starts: G + W C in the chosen\n"
+    "                         scene (default 4)\n"
     "  --starts K             race the K best candidates for the --refine renders by\n"
     "                         successive halving (default 1: the best alone)\n"
     "  --threads T            render threads (default: online CPUs); never changes a byte\n"

@@ -95,6 +95,10 @@ int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
         if (cli_parse_double(sub, opt, val, 0.0, 1e6, &d))
             return -1;
         ro->colour_phase_weight = d;
+    } else if (!strcmp(opt, "--start-colour-weight")) {
+        if (cli_parse_double(sub, opt, val, 0.0, 1e6, &d))
+            return -1;
+        ro->start_colour_weight = d;
     } else if (!strcmp(opt, "--starts")) {
         if (cli_parse_ll(sub, opt, val, 1, 64, &n))
             return -1;

@@ -508,8 +508,8 @@ static int evaluate_input(worker *w, const input *in, result *r)
         /* The pick: the first, or the candidate whose render is nearest the input under the
          * training descriptor (issue 15's -topk row; ties: the earlier, i.e. the likelier or
          * nearer). The refinement starts where predict's would: from the candidates best by
-         * predict's loss, G + colour_weight C (predict.c, "combine"), which is the pick
-         * when the colour weight is 0. */
+         * G + start_colour_weight C (predict.c, the starts), which is the pick when that
+         * weight is 0. */
         int order[256] = {0}, by_loss[256] = {0};
         double dist[256], loss[256];
         for (int j = 0; j < n && methods[m].topk; j++) {
@@ -522,7 +522,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
             }
             dist[j] = evaluate_gram_distance(iw.in_desc[sh->train], c->desc[sh->train],
                                              w->offsets[sh->train], w->n_layers[sh->train]);
-            loss[j] = pipeline_refine_loss(dist[j], colour, o->refine.colour_weight);
+            loss[j] = pipeline_refine_loss(dist[j], colour, o->refine.start_colour_weight);
             pipeline_insert_by_key(order, j, dist);
             pipeline_insert_by_key(by_loss, j, loss);
         }
@@ -1102,6 +1102,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
     cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);
+    cJSON_AddNumberToObject(cmd, "start_colour_weight", o->refine.start_colour_weight);
     cJSON_AddNumberToObject(cmd, "colour_phase", o->refine.colour_phase);
     cJSON_AddNumberToObject(cmd, "colour_phase_weight", o->refine.colour_phase_weight);
     cJSON_AddNumberToObject(cmd, "starts", o->refine.starts);

@@ -488,6 +488,9 @@ typedef struct refine_options {
     int colour_phase;           /* evaluations weighted colour_phase_weight (0: none) */
     double colour_phase_weight; /* w during them */
     int starts; /* starts raced (refine_race; >= 1): the caller's best few candidates */
+    double start_colour_weight; /* w when the caller ranks its candidates as starts
+                                 * (PIPELINE_START_COLOUR_WEIGHT): predict's and
+                                 * evaluate's -refine rows', not the search's */
 } refine_options;
 /* coordinate-sweep (the measured best at predict's budget: docs/predict.md), budget 48,
  * step 0.25, min_step 1/128, seed 1, colour_weight PIPELINE_COLOUR_WEIGHT, no colour phase
@@ -506,6 +509,7 @@ void refine_space_for_params(const char *const *names, int n, refine_kind *kind,
 double pipeline_refine_loss(double gram, double colour, double colour_weight);
 #define PIPELINE_COLOUR_WEIGHT 4.0        /* predict's default */
 #define PIPELINE_COLOUR_PHASE_WEIGHT 12.0 /* the colour phase's, when there is one */
+#define PIPELINE_START_COLOUR_WEIGHT 4.0  /* ranking the candidates as starts */
 
 /* The two terms of a parameter set's loss (each lower is better; the search weighs them,
  * refine_options): 0, or -1 with a message. A loss of one term sets colour to 0. */

@@ -617,16 +617,22 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     choices = malloc((size_t)np * sizeof *choices);
     start_loss = malloc((size_t)n_keep * sizeof *start_loss);
     if (order && start_loss) {
-        /* By loss in the winner's scene (ties: the earlier); those without one last, cut. */
+        /* The starts: the candidates in the winner's scene by G + start_colour_weight C
+         * (ties: the earlier); those without a finite loss last, cut. The scene is the
+         * search loss's pick (best_k's); the start need not be best_k: the search mends
+         * colour more easily than texture (docs/predict.md, "The starts"). */
         for (int j = 0; j < n_keep; j++) {
-            double l = cands[keep[j]].loss[best_scene];
-            start_loss[j] = isfinite(l) ? l : NAN;
-            n_starts += isfinite(l);
+            const candidate *c = &cands[keep[j]];
+            double l = pipeline_refine_loss(c->g[best_scene], c->c[best_scene],
+                                            o->refine.start_colour_weight);
+            start_loss[j] = isfinite(l) && isfinite(c->loss[best_scene]) ? l : NAN;
+            n_starts += !isnan(start_loss[j]);
             pipeline_insert_by_key(order, j, start_loss);
         }
         for (int b = 0; b < n_starts; b++)
             order[b] = keep[order[b]];
-        assert(n_starts >= 1 && order[0] == best_k);
+        assert(n_starts >= 1);
+        assert(o->refine.start_colour_weight != o->refine.colour_weight || order[0] == best_k);
         if (n_starts > o->refine.starts)
             n_starts = o->refine.starts;
         starts = malloc((size_t)n_starts * (size_t)np * sizeof(float));
@@ -727,6 +733,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(lossj, "colour_weight", o->refine.colour_weight);
     cJSON_AddNumberToObject(lossj, "colour_phase", o->refine.colour_phase);
     cJSON_AddNumberToObject(lossj, "colour_phase_weight", o->refine.colour_phase_weight);
+    cJSON_AddNumberToObject(lossj, "start_colour_weight", o->refine.start_colour_weight);
     cJSON_AddStringToObject(lossj, "search_preset", o->search_preset->name);
     cJSON_AddStringToObject(lossj, "refine_preset", o->refine_preset->name);
     cJSON_AddStringToObject(lossj, "final_preset", o->final_preset->name);

@@ -112,6 +112,7 @@ void refine_options_default(refine_options *o)
     o->colour_phase = 0;
     o->colour_phase_weight = PIPELINE_COLOUR_PHASE_WEIGHT;
     o->starts = 1;
+    o->start_colour_weight = PIPELINE_START_COLOUR_WEIGHT;
 }
 
 /* "Noise A Scale" and its kin: a name that starts with "Noise " and ends with " Scale". */

@@ -127,15 +127,18 @@ if [ -z "$quick" ]; then
     check "a datagen search spends --refine renders" 0 $?
     # The loss options are predict's: only the -refine rows depend on them, and the
     # report names them
-    "$imsynth" evaluate $ev --colour-phase 2 --colour-weight 0 -o "$tmp/rc" > /dev/null 2>&1
-    check "evaluate, --colour-phase 2 --colour-weight 0" 0 $?
+    "$imsynth" evaluate $ev --colour-phase 2 --colour-weight 0 --start-colour-weight 0 \
+        -o "$tmp/rc" > /dev/null 2>&1
+    check "evaluate, --colour-phase 2 --colour-weight 0 --start-colour-weight 0" 0 $?
     grep -v -e '-refine,' "$tmp/rc/inputs.csv" > "$tmp/rc.rest"
     cmp -s "$tmp/rc.rest" "$tmp/r2.rest"; check "only the -refine rows depend on the loss options" 0 $?
     grep -q '"colour_phase":[[:space:]]*2' "$tmp/rc/report.json" &&
-        grep -q '"colour_weight":[[:space:]]*0' "$tmp/rc/report.json"
+        grep -q '"colour_weight":[[:space:]]*0' "$tmp/rc/report.json" &&
+        grep -q '"start_colour_weight":[[:space:]]*0' "$tmp/rc/report.json"
     check "report.json names the loss options" 0 $?
-    # A -refine row starts from the candidate predict would pick, by G + w C: with w = 0
-    # that is the -topk row's pick (by G), and it is always one of the -topk candidates.
+    # A -refine row starts from the candidate predict would pick, by G + w C (w =
+    # --start-colour-weight): with w = 0 that is the -topk row's pick (by G), and it is
+    # always one of the -topk candidates.
     start_check='
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -148,7 +151,7 @@ for i in r["inputs"]:
         assert not same or start == pick["chosen"], (i, t, start, pick["chosen"])
 '
     py "$start_check" "$tmp/rc/report.json" same
-    check "with colour weight 0 the refinement starts from the -topk pick" 0 $?
+    check "with start colour weight 0 the refinement starts from the -topk pick" 0 $?
     py "$start_check" "$tmp/r2/report.json" any
     check "the refinement starts from a -topk candidate" 0 $?
     # --starts: the -refine rows race their -topk method's best picks, within --refine
