@@ -60,8 +60,8 @@ static const char *const help =
     "  -o, --output DIR      the report folder (required)\n"
     "  --top-k K             candidates of the -topk methods (default 8)\n"
     "  --sample-hypotheses T the predictor's top-k: its likeliest combination and K - 1\n"
-    "                        drawn from its heads sharpened to p^(1/T) (default: the K\n"
-    "                        likeliest)\n"
+    "                        drawn from its heads sharpened to p^(1/T) (default 0.5,\n"
+    "                        predict's; 0: the K likeliest)\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
@@ -109,10 +109,12 @@ int cmd_evaluate(int argc, char **argv)
     o.blender = SG_BLENDER_4;
     o.sheet_inputs = 16;
     o.preset = datagen_preset_find("datagen");
-    /* The -refine rows run predict's search: its method, budget and preset. */
+    /* The -refine rows run predict's search: its method, budget and preset; the -topk
+     * rows its hypotheses. */
     predict_options po;
     predict_options_default(&po);
     o.refine = po.refine;
+    o.sample_hypotheses = po.sample_hypotheses;
     o.refine_preset = po.refine_preset;
     int open_line = 0;
     o.progress = progress;
@@ -155,7 +157,7 @@ int cmd_evaluate(int argc, char **argv)
                 return EXIT_USAGE;
             o.top_k = (int)n;
         } else if (!strcmp(a, "--sample-hypotheses")) {
-            if (cli_parse_double(sub, a, v, 0.01, 100, &o.sample_hypotheses))
+            if (cli_parse_sample_hypotheses(sub, a, v, &o.sample_hypotheses))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))

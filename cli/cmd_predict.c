@@ -42,7 +42,7 @@ static const char *const help =
     "                         flash at the camera, or auto (default): both, the better kept\n"
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --sample-hypotheses T  the likeliest and K - 1 drawn from the selectors' distributions\n"
-    "                         sharpened to p^(1/T) (default: the K likeliest)\n"
+    "                         sharpened to p^(1/T) (default 0.5; 0: the K likeliest)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
     "  --refine N             refinement renders, the start's included (default 224)\n"
     "  --method M             coordinate-sweep (default), coordinate, coordinate-jump,\n"
@@ -139,7 +139,7 @@ int cmd_predict(int argc, char **argv)
             }
             o.light = (predict_light)k;
         } else if (!strcmp(a, "--sample-hypotheses")) {
-            if (cli_parse_double(sub, a, val, 0.01, 100, &o.sample_hypotheses))
+            if (cli_parse_sample_hypotheses(sub, a, val, &o.sample_hypotheses))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--top-k")) {
             if (cli_parse_ll(sub, a, val, 1, 256, &v))

@@ -21,9 +21,10 @@ static const char *const help =
     "options:\n"
     "  --model MODEL_DIR      from `imsynth fit-predictor` (default: the bundled assets/model)\n"
     "  -o, --output P.json    the top hypothesis (default: stdout)\n"
-    "  --top-k K              also consider the K likeliest selector combinations\n"
-    "  --sample-hypotheses T  instead of the K likeliest: the likeliest and K - 1 drawn from\n"
-    "                         the selectors' distributions sharpened to p^(1/T)\n"
+    "  --top-k K              also consider K selector combinations: the likeliest and\n"
+    "                         K - 1 drawn as --sample-hypotheses says\n"
+    "  --sample-hypotheses T  draw from the selectors' distributions sharpened to p^(1/T)\n"
+    "                         (default 0.5, predict's; 0: the K likeliest instead)\n"
     "  --hypotheses H.json    write all K as {\"hypotheses\": [{\"probability\": p,\n"
     "                         \"params\": {...}}, ...]}, likeliest first\n"
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
@@ -50,7 +51,7 @@ int cmd_predict_params(int argc, char **argv)
     }
     const char *image_path = NULL, *model_dir = NULL, *out = NULL, *hyp_path = NULL;
     long long top_k = 1, nearest = 0;
-    double temperature = 0;
+    double temperature = PIPELINE_SAMPLE_HYPOTHESES;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] != '-') {
@@ -76,7 +77,7 @@ int cmd_predict_params(int argc, char **argv)
             if (cli_parse_ll(sub, a, v, 1, 4096, &top_k))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--sample-hypotheses")) {
-            if (cli_parse_double(sub, a, v, 0.01, 100, &temperature))
+            if (cli_parse_sample_hypotheses(sub, a, v, &temperature))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--nearest")) {
             if (cli_parse_ll(sub, a, v, 1, 4096, &nearest))

@@ -121,6 +121,20 @@ int cli_parse_double(const char *sub, const char *opt, const char *s, double lo,
     return 0;
 }
 
+int cli_parse_sample_hypotheses(const char *sub, const char *opt, const char *s, double *out)
+{
+    double t;
+    if (cli_parse_double(sub, opt, s, 0, 100, &t))
+        return -1;
+    if (t > 0 && t < 0.01) {
+        cli_error(sub, "%s: expected 0 (the likeliest) or a temperature in [0.01, 100], got \"%s\"",
+                  opt, s);
+        return -1;
+    }
+    *out = t;
+    return 0;
+}
+
 int cli_wants_help(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++) {

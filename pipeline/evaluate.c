@@ -1097,8 +1097,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "preset", o->preset->name);
     cJSON_AddStringToObject(cmd, "refine_preset", refine_preset(o)->name);
     cJSON_AddNumberToObject(cmd, "top_k", o->top_k);
-    if (o->sample_hypotheses > 0)
-        cJSON_AddNumberToObject(cmd, "sample_hypotheses", o->sample_hypotheses);
+    cJSON_AddNumberToObject(cmd, "sample_hypotheses", o->sample_hypotheses);
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
     cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);

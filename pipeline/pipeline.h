@@ -510,6 +510,10 @@ double pipeline_refine_loss(double gram, double colour, double colour_weight);
 #define PIPELINE_COLOUR_WEIGHT 4.0        /* predict's default */
 #define PIPELINE_COLOUR_PHASE_WEIGHT 12.0 /* the colour phase's, when there is one */
 #define PIPELINE_START_COLOUR_WEIGHT 4.0  /* ranking the candidates as starts */
+/* The predictor's top k: its likeliest combination and k - 1 drawn at this temperature
+ * (predictor_sample_hypotheses), predict's, predict-params' and evaluate's default: the
+ * rendered pick is closer than the k likeliest's (EVALUATION.md, sessions 24 and 26). */
+#define PIPELINE_SAMPLE_HYPOTHESES 0.5
 
 /* The two terms of a parameter set's loss (each lower is better; the search weighs them,
  * refine_options): 0, or -1 with a message. A loss of one term sets colour to 0. */
@@ -660,7 +664,8 @@ typedef struct predict_options {
     const char *graph_path;   /* NULL: assets/supershader.json likewise */
     const char *scene_path, *flash_scene_path; /* NULL: assets/scene.json, scene-flash.json */
     int top_k;                /* predictor hypotheses (8) */
-    double sample_hypotheses; /* 0: the top_k likeliest; T > 0: predictor_sample_hypotheses */
+    double sample_hypotheses; /* 0: the top_k likeliest; T > 0: predictor_sample_hypotheses
+                               * (PIPELINE_SAMPLE_HYPOTHESES) */
     int nearest;              /* catalogue candidates (8; 0: none) */
     refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
                                * colour_weight also scores the candidates and the final */
@@ -680,7 +685,7 @@ typedef struct predict_options {
     void *progress_ctx;
 } predict_options;
 
-/* top_k 8, nearest 8, refinement coordinate-sweep with budget 224, presets datagen
+/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8, refinement coordinate-sweep with budget 224, presets datagen
  * (candidates) / draft (refinement) / converged (final), light auto, colour_weight 4,
  * blender 4, seed 1. */
 void predict_options_default(predict_options *o);

@@ -44,6 +44,9 @@ void predict_options_default(predict_options *o)
 {
     memset(o, 0, sizeof *o);
     o->top_k = 8;
+    /* Spread-out hypotheses: the beam's 8 differ from the likeliest in 1-3 of 14 selectors;
+     * 8 drawn give the renderer a real choice (EVALUATION.md, sessions 24 and 26). */
+    o->sample_hypotheses = PIPELINE_SAMPLE_HYPOTHESES;
     o->nearest = 8;
     refine_options_default(&o->refine);
     /* The search renders at draft (1 shading point a pixel, a quarter of datagen's time):
@@ -773,8 +776,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* hypotheses and samples passed over (each list's, before its last kept one) or merged
      * (a catalogue sample equal to a hypothesis) because another had their sub-shader */
     cJSON_AddNumberToObject(report, "candidates_merged", passed_over + n_cands - n_keep);
-    if (o->sample_hypotheses > 0)
-        cJSON_AddNumberToObject(report, "sample_hypotheses", o->sample_hypotheses);
+    cJSON_AddNumberToObject(report, "sample_hypotheses", o->sample_hypotheses);
     cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
     cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(rj, "budget", o->refine.budget);

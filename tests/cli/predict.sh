@@ -137,14 +137,15 @@ check "bad --colour-phase" 2 $?
 
 # --sample-hypotheses T: the predictor's candidates are its likeliest combination and drawn
 # ones: the same first one as the beam's, and less probable others; report.json says so
-"$imsynth" predict "$input" -o "$tmp/sb" $fast --light scene --nearest 0 --top-k 3 --refine 1 &&
-    "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 \
-        --refine 1 --sample-hypotheses 0.5
-check "predict --sample-hypotheses 0.5" 0 $?
+# (the default, T = 0.5) against the beam (--sample-hypotheses 0)
+"$imsynth" predict "$input" -o "$tmp/sb" $fast --light scene --nearest 0 --top-k 3 --refine 1 \
+    --sample-hypotheses 0 &&
+    "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 --refine 1
+check "predict --sample-hypotheses 0, and the default" 0 $?
 py - "$tmp/sb/report.json" "$tmp/ss/report.json" << 'PY'
 import json, sys
 b, s = (json.load(open(f)) for f in sys.argv[1:3])
-assert "sample_hypotheses" not in b and s["sample_hypotheses"] == 0.5, s.get("sample_hypotheses")
+assert b["sample_hypotheses"] == 0 and s["sample_hypotheses"] == 0.5, (b, s)
 pb = sorted((c["probability"] for c in b["candidates"]), reverse=True)
 ps = sorted((c["probability"] for c in s["candidates"]), reverse=True)
 assert len(pb) == len(ps) == 3 and ps[0] == pb[0], (pb, ps)

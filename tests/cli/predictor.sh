@@ -94,7 +94,7 @@ wait $pid 2> /dev/null
 # predictions
 img="$root/tests/reference/render/supershader_s1/blender-4.3-a.exr"
 "$imsynth" predict-params "$img" --model "$tmp/m1" -o "$tmp/p.json" --top-k 5 \
-    --hypotheses "$tmp/h.json" --nearest 4
+    --sample-hypotheses 0 --hypotheses "$tmp/h.json" --nearest 4
 check "predict-params" 0 $?
 "$imsynth" render "$root/assets/supershader.json" --params "$tmp/p.json" --spp 1 -o "$tmp/p.exr" > /dev/null 2>&1
 check "the prediction is a parameter file render takes" 0 $?
@@ -140,8 +140,14 @@ assert sum(pr[:5]) <= sum(x['probability'] for x in beam) + 1e-12
 assert set(combos[:5]) != {tuple(x['params'][k] for k in sel) for x in beam}
 "
 check "sampled: likeliest first, distinct, ordered, not the beam's" 0 $?
-"$imsynth" predict-params "$img" --model "$tmp/m1" --sample-hypotheses 0 2> "$tmp/err"
-check "--sample-hypotheses 0 is a usage error" 2 $?
+# The default is T = 0.5 (predict's); 0 asked for the beam above
+"$imsynth" predict-params "$img" --model "$tmp/m1" --top-k 6 --hypotheses "$tmp/hd.json" \
+    -o "$tmp/pd.json"
+check "predict-params, default hypotheses" 0 $?
+cmp -s "$tmp/hd.json" "$tmp/hs1.json" && cmp -s "$tmp/pd.json" "$tmp/ps1.json"
+check "the default hypotheses are --sample-hypotheses 0.5's" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/m1" --sample-hypotheses 0.001 2> "$tmp/err"
+check "--sample-hypotheses below 0.01 (not 0) is a usage error" 2 $?
 # bad models: clear errors naming the file
 "$imsynth" predict-params "$img" --model "$tmp/nothing" 2> "$tmp/err"
 check "a missing model directory" 1 $?
