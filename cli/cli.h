@@ -78,9 +78,8 @@ int cli_parse_double(const char *sub, const char *opt, const char *s, double lo,
 const struct datagen_preset *cli_parse_preset(const char *sub, const char *opt, const char *s);
 /* The refinement's options, predict's and evaluate's alike: --refine N, --method M,
  * --colour-weight W, --colour-phase N, --colour-phase-weight W, --start-colour-weight W,
- * --starts K into *ro. 1 when opt was
- * one of them, 0 when not, -1 after printing "imsynth <sub>: <opt>: expected ..." (a usage
- * error). */
+ * --starts K into *ro. 1 when opt was one of them, 0 when not, -1 after printing
+ * "imsynth <sub>: <opt>: expected ..." (a usage error). */
 int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
                             struct refine_options *ro);
 /* --sample-hypotheses T: 0 (the predictor's k likeliest combinations) or a temperature in

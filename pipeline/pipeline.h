@@ -685,9 +685,9 @@ typedef struct predict_options {
     void *progress_ctx;
 } predict_options;
 
-/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8, refinement coordinate-sweep with budget 224, presets datagen
- * (candidates) / draft (refinement) / converged (final), light auto, colour_weight 4,
- * blender 4, seed 1. */
+/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8, refinement coordinate-sweep
+ * with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
+ * light auto, colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);

@@ -628,7 +628,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
             const candidate *c = &cands[keep[j]];
             double l = pipeline_refine_loss(c->g[best_scene], c->c[best_scene],
                                             o->refine.start_colour_weight);
-            start_loss[j] = isfinite(l) && isfinite(c->loss[best_scene]) ? l : NAN;
+            start_loss[j] = isfinite(l) ? l : NAN; /* finite iff G and C are, as the loss */
             n_starts += !isnan(start_loss[j]);
             pipeline_insert_by_key(order, j, start_loss);
         }
