@@ -16,7 +16,6 @@
 imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
-py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
 chroot_root=/srv/trixie
 
 have34=0; have43=0

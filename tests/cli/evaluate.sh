@@ -93,8 +93,7 @@ awk -F, '$2 == "mean" && $4 == "value" && $9 !~ /nan/ && $9 != 0 { print; bad = 
     "$tmp/r2/summary.csv"
 check "the mean method's R^2 is 0" 0 $?
 # A share of inputs comes with its 95% interval around it; other figures have none.
-py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
-py "
+py -c "
 import json, sys
 r = json.load(open(sys.argv[1]))
 shares = [t for t in r['targets'] if 'beats' in t['what']]
@@ -152,9 +151,9 @@ for i in r["inputs"]:
         assert 0 <= start < pick["candidates"], (i, t)
         assert not same or start == pick["chosen"], (i, t, start, pick["chosen"])
 '
-    py "$start_check" "$tmp/rc/report.json" same
+    py -c "$start_check" "$tmp/rc/report.json" same
     check "with start colour weight 0 the refinement starts from the -topk pick" 0 $?
-    py "$start_check" "$tmp/r2/report.json" any
+    py -c "$start_check" "$tmp/r2/report.json" any
     check "the refinement starts from a -topk candidate" 0 $?
     # --starts: the -refine rows race their -topk method's best picks, within --refine
     "$imsynth" evaluate $ev --starts 2 -o "$tmp/rk" > /dev/null 2>&1

@@ -12,7 +12,6 @@
 imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
-py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
 hostile=$root/tests/cli/lib/make_hostile.py
 
 # Small inputs for every command.

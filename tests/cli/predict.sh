@@ -9,7 +9,6 @@
 imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
-py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
 
 "$imsynth" datagen --out "$tmp/ds.sqlite" --count 24 --preset draft --quiet
 check "a draft dataset" 0 $?

@@ -9,7 +9,6 @@ imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
 quick=${IMSYNTH_TEST_QUICK:-}
-py() { /usr/bin/python3 -c "$@" 2> /dev/null || python3 -c "$@"; }
 # killed_and_resumed DONE NEW OPTION: a 3-epoch fit with OPTION into $tmp/NEW, killed
 # after 0.7 s and rerun; true when its network is $tmp/DONE's (the uninterrupted run's)
 killed_and_resumed() {
@@ -22,7 +21,7 @@ killed_and_resumed() {
 # had the Python STATEMENT applied to it (as m); predict-params with it, stderr in $tmp/err
 lying_model() {
     cp -r "$tmp/$1" "$tmp/$2"
-    py "
+    py -c "
 import json
 m = json.load(open('$tmp/$2/model.json')); $3
 json.dump(m, open('$tmp/$2/model.json', 'w'))
@@ -98,7 +97,7 @@ img="$root/tests/reference/render/supershader_s1/blender-4.3-a.exr"
 check "predict-params" 0 $?
 "$imsynth" render "$root/assets/supershader.json" --params "$tmp/p.json" --spp 1 -o "$tmp/p.exr" > /dev/null 2>&1
 check "the prediction is a parameter file render takes" 0 $?
-py "
+py -c "
 import json, sys
 p = json.load(open('$tmp/p.json')); h = json.load(open('$tmp/h.json'))
 assert len(p) == 50 and all(0 <= v <= 1 for v in p.values()), p
@@ -125,7 +124,7 @@ check "hypotheses: ordered, distinct, same values; nearest: ordered, distinct" 0
 check "predict-params --sample-hypotheses" 0 $?
 cmp -s "$tmp/hs1.json" "$tmp/hs2.json"
 check "sampled hypotheses: the same draws on a rerun" 0 $?
-py "
+py -c "
 import json
 p = json.load(open('$tmp/p.json')); hyp = json.load(open('$tmp/hs1.json'))['hypotheses']
 beam = json.load(open('$tmp/h.json'))['hypotheses']
@@ -175,7 +174,7 @@ expect_stderr "says the limit" "at most min(rows - 1, features)"
 # first ids; the model still predicts and retrieves
 "$imsynth" fit-predictor $fit --epochs 6 --threads 2 --half --catalogue 5 -o "$tmp/mh"
 check "fit --half --catalogue 5" 0 $?
-py "
+py -c "
 import json, struct
 def header(p):
     b = open(p, 'rb').read(); n = struct.unpack('<Q', b[:8])[0]; return json.loads(b[8:8 + n])
@@ -192,7 +191,7 @@ check "a --half model predicts and retrieves" 0 $?
 # --per-tap: each of the 5 MobileNetV2 taps gets its share of the 8 components (2,2,2,1,1),
 # each component zero outside its own tap's values and not zero inside them
 "$imsynth" fit-predictor $fit --epochs 2 --per-tap -o "$tmp/mt"; check "fit --per-tap" 0 $?
-py "
+py -c "
 import json, struct
 b = open('$tmp/mt/transform.safetensors', 'rb').read(); n = struct.unpack('<Q', b[:8])[0]
 h = json.loads(b[8:8 + n]); t = h['pca.components']
@@ -213,7 +212,7 @@ check "a --per-tap model predicts" 0 $?
 check "a forest's mask of 64 features" 0 $?
 "$imsynth" fit-predictor $fit --epochs 2 --feature-mask "$tmp/fmask.npy" -o "$tmp/mf"
 check "fit --feature-mask" 0 $?
-py "
+py -c "
 import json, struct
 def npy(p):
     b = open(p, 'rb').read(); n = struct.unpack('<H', b[8:10])[0]
@@ -232,7 +231,7 @@ assert tr['reduction'] == 'feature mask' and len(tr['feature_mask_sha256']) == 6
 check "masked basis: each component within the mask's features" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mf" -o "$tmp/pf.json"
 check "a --feature-mask model predicts" 0 $?
-py "
+py -c "
 import struct
 def npy(p, shape, vals):
     h = \"{'descr': '<f4', 'fortran_order': False, 'shape': %s, }\" % (shape,)
@@ -257,7 +256,7 @@ check "--per-tap with --feature-mask is a usage error" 2 $?
 # keeps their standardisation; the model predicts, and its predictions depend on the image
 # (two images, two answers); kill -9 and resume still gives the uninterrupted bytes
 "$imsynth" fit-predictor $fit --epochs 3 --texstats --threads 1 -o "$tmp/ms"; check "fit --texstats" 0 $?
-py "
+py -c "
 import json, struct
 b = open('$tmp/ms/transform.safetensors', 'rb').read(); n = struct.unpack('<Q', b[:8])[0]
 h = json.loads(b[8:8 + n])
@@ -281,7 +280,7 @@ expect_stderr "says how to go on" "restart"
 # with no best validation loss yet (null): that run resumes, and equals the uninterrupted
 # one. The window is too short to hit with a timed kill: the killed run's state is put back
 # to it (and to 3 epochs), as a kill there would have left it.
-py "
+py -c "
 import json
 p = '$tmp/mx.partial/state.json'; s = json.load(open(p))
 s['settings']['epochs'] = 3; s.update(epochs_done=0, best_epoch=0, best_val_loss=None, history=[])
@@ -310,7 +309,7 @@ check "--conditional: killed and resumed equals uninterrupted" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mc" -o "$tmp/pc.json" --top-k 4 \
     --hypotheses "$tmp/hc.json"
 check "a --conditional model predicts" 0 $?
-py "
+py -c "
 import json
 m = json.load(open('$tmp/mc/model.json'))
 assert m['network']['arch'].startswith('mlp:84-') and m['network']['selector_inputs'] == 76, m['network']
@@ -330,7 +329,7 @@ expect_stderr "names the file and the field" "bc/model.json: \"network\".\"selec
 # without --model: the bundled model, as predict and search use it
 "$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
 check "predict-params without --model" 0 $?
-py "
+py -c "
 import json
 h = json.load(open('$tmp/hb.json'))
 assert h['model'].endswith('assets/model'), h['model']

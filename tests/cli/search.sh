@@ -6,7 +6,6 @@
 imsynth=$1
 root=$2
 . "$root/tests/cli/lib/harness.sh"
-py() { /usr/bin/python3 "$@" 2> /dev/null || python3 "$@"; }
 
 "$imsynth" datagen --out "$tmp/ds.sqlite" --count 16 --preset draft --quiet
 check "a draft dataset with renders" 0 $?

@@ -3,6 +3,11 @@
 # exit, a failure count, and the checks below. Each check prints "ok: ..." or "FAIL: ...";
 # the script ends with `finish`.
 set -u
+# The Python of the checks, chosen once: Debian's (numpy is there) when present, else the
+# first on PATH. Never "the one, else the other": a failed check rerun by the second from a
+# heredoc reads an empty stdin and passes (every heredoc check did so until session 27).
+if [ -x /usr/bin/python3 ]; then python=/usr/bin/python3; else python=python3; fi
+py() { "$python" "$@"; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 failures=0
