@@ -85,6 +85,9 @@ int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
 /* --sample-hypotheses T: 0 (the predictor's k likeliest combinations) or a temperature in
  * [0.01, 100] (below it p^(1/T) underflows); -1 after printing the usage error. */
 int cli_parse_sample_hypotheses(const char *sub, const char *opt, const char *s, double *out);
+/* --nearest-metric pca|whitened: *out the predictor_metric (predictor_nearest_metric);
+ * -1 after printing the usage error. */
+int cli_parse_nearest_metric(const char *sub, const char *opt, const char *s, int *out);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);
 

@@ -62,6 +62,8 @@ static const char *const help =
     "  --sample-hypotheses T the predictor's top-k: its likeliest combination and K - 1\n"
     "                        drawn from its heads sharpened to p^(1/T) (default 0.5,\n"
     "                        predict's; 0: the K likeliest)\n"
+    "  --nearest-metric M    the nearest methods' retrieval: pca (default, predict's) or\n"
+    "                        whitened\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
@@ -115,6 +117,7 @@ int cmd_evaluate(int argc, char **argv)
     predict_options_default(&po);
     o.refine = po.refine;
     o.sample_hypotheses = po.sample_hypotheses;
+    o.nearest_metric = po.nearest_metric;
     o.refine_preset = po.refine_preset;
     int open_line = 0;
     o.progress = progress;
@@ -159,6 +162,11 @@ int cmd_evaluate(int argc, char **argv)
         } else if (!strcmp(a, "--sample-hypotheses")) {
             if (cli_parse_sample_hypotheses(sub, a, v, &o.sample_hypotheses))
                 return EXIT_USAGE;
+        } else if (!strcmp(a, "--nearest-metric")) {
+            int m;
+            if (cli_parse_nearest_metric(sub, a, v, &m))
+                return EXIT_USAGE;
+            o.nearest_metric = (predictor_metric)m;
         } else if (!strcmp(a, "--limit")) {
             if (cli_parse_ll(sub, a, v, 1, INT64_MAX, &n))
                 return EXIT_USAGE;

@@ -44,6 +44,8 @@ static const char *const help =
     "  --sample-hypotheses T  the likeliest and K - 1 drawn from the selectors' distributions\n"
     "                         sharpened to p^(1/T) (default 0.5; 0: the K likeliest)\n"
     "  --nearest N            catalogue candidates (default 8; 0: none)\n"
+    "  --nearest-metric M     their retrieval: pca (default: Euclidean over the model's PCA\n"
+    "                         scores) or whitened (over its whitened components)\n"
     "  --refine N             refinement renders, the start's included (default 224)\n"
     "  --method M             coordinate-sweep (default), coordinate, coordinate-jump,\n"
     "                         coordinate-zoom, es, es-split, es-mirror, random\n"
@@ -145,6 +147,11 @@ int cmd_predict(int argc, char **argv)
             if (cli_parse_ll(sub, a, val, 1, 256, &v))
                 return EXIT_USAGE;
             o.top_k = (int)v;
+        } else if (!strcmp(a, "--nearest-metric")) {
+            int m;
+            if (cli_parse_nearest_metric(sub, a, val, &m))
+                return EXIT_USAGE;
+            o.nearest_metric = (predictor_metric)m;
         } else if (!strcmp(a, "--nearest")) {
             if (cli_parse_ll(sub, a, val, 0, 256, &v))
                 return EXIT_USAGE;

@@ -28,7 +28,8 @@ static const char *const help =
     "  --hypotheses H.json    write all K as {\"hypotheses\": [{\"probability\": p,\n"
     "                         \"params\": {...}}, ...]}, likeliest first\n"
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
-    "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n";
+    "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n"
+    "  --nearest-metric M     that retrieval's distance: pca (default, predict's) or whitened\n";
 
 static int write_params_atomic(const char *path, const char *const *names, const float *v,
                                int n, char *err, size_t errlen)
@@ -52,6 +53,7 @@ int cmd_predict_params(int argc, char **argv)
     const char *image_path = NULL, *model_dir = NULL, *out = NULL, *hyp_path = NULL;
     long long top_k = 1, nearest = 0;
     double temperature = PIPELINE_SAMPLE_HYPOTHESES;
+    int metric = PREDICTOR_METRIC_PCA;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] != '-') {
@@ -78,6 +80,9 @@ int cmd_predict_params(int argc, char **argv)
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--sample-hypotheses")) {
             if (cli_parse_sample_hypotheses(sub, a, v, &temperature))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--nearest-metric")) {
+            if (cli_parse_nearest_metric(sub, a, v, &metric))
                 return EXIT_USAGE;
         } else if (!strcmp(a, "--nearest")) {
             if (cli_parse_ll(sub, a, v, 1, 4096, &nearest))
@@ -106,6 +111,7 @@ int cmd_predict_params(int argc, char **argv)
     if (!p)
         goto fail;
     predictor_sample_hypotheses(p, temperature);
+    predictor_nearest_metric(p, (predictor_metric)metric);
     if (image_read(image_path, &img, err, sizeof err) ||
         pipeline_prepare_input(&img, 256, &prepared, err, sizeof err))
         goto fail;

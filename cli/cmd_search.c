@@ -17,9 +17,8 @@ static const char *const help =
     "  imsynth export assets/supershader.json --seed ID -o material.json\n"
     "Sources:\n"
     "  --model DIR       a model's catalogue (default: the bundled assets/model): the\n"
-    "                    retrieval predict uses (Euclidean in the model's whitened PCA\n"
-    "                    space); hits are rendered at --preset. --catalogue DIR is the\n"
-    "                    same option\n"
+    "                    retrieval predict uses (--nearest-metric); hits are rendered\n"
+    "                    at --preset. --catalogue DIR is the same option\n"
     "  --dataset DS      every row of a dataset with a whole MobileNetV2 or VGG19\n"
     "                    descriptor: the Gram distance; its stored renders are shown\n"
     "\n"
@@ -29,6 +28,8 @@ static const char *const help =
     "  --json F          also the hits as JSON (id, view, distance, export command, params)\n"
     "  --cols C          sheet columns (default 5)\n"
     "  --tile PX         tile size (default 160)\n"
+    "  --nearest-metric M  a catalogue's distance: pca (default: Euclidean over the\n"
+    "                    model's PCA scores) or whitened (over its whitened components)\n"
     "  --preset NAME     renders of catalogue hits: draft, datagen (default), converged\n"
     "  --threads T       render threads (default: online CPUs)\n"
     "  --quiet           no \"id view distance\" lines on stdout\n";
@@ -74,6 +75,12 @@ int cmd_search(int argc, char **argv)
             o.model_dir = val;
         else if (!strcmp(a, "--dataset"))
             o.dataset_path = val;
+        else if (!strcmp(a, "--nearest-metric")) {
+            int m;
+            if (cli_parse_nearest_metric(sub, a, val, &m))
+                return EXIT_USAGE;
+            o.nearest_metric = (predictor_metric)m;
+        }
         else if (!strcmp(a, "-k") || !strcmp(a, "--cols") || !strcmp(a, "--tile") ||
                  !strcmp(a, "--threads")) {
             long long hi = 1024;

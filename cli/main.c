@@ -135,6 +135,17 @@ int cli_parse_sample_hypotheses(const char *sub, const char *opt, const char *s,
     return 0;
 }
 
+int cli_parse_nearest_metric(const char *sub, const char *opt, const char *s, int *out)
+{
+    for (int m = 0; m < 2; m++)
+        if (!strcmp(s, predictor_metric_names[m])) {
+            *out = m;
+            return 0;
+        }
+    cli_error(sub, "%s: expected pca or whitened, got \"%s\"", opt, s);
+    return -1;
+}
+
 int cli_wants_help(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++) {

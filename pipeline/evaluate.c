@@ -1098,6 +1098,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "refine_preset", refine_preset(o)->name);
     cJSON_AddNumberToObject(cmd, "top_k", o->top_k);
     cJSON_AddNumberToObject(cmd, "sample_hypotheses", o->sample_hypotheses);
+    cJSON_AddStringToObject(cmd, "nearest_metric", predictor_metric_names[o->nearest_metric]);
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
     cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);
@@ -1795,6 +1796,7 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
         goto done;
     }
     predictor_sample_hypotheses(sh.pred, o->sample_hypotheses);
+    predictor_nearest_metric(sh.pred, o->nearest_metric);
     sh.n_params = predictor_n_params(sh.pred);
     sh.names = predictor_param_names(sh.pred);
     sh.mean = predictor_mean_params(sh.pred);

@@ -373,11 +373,20 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
  * than the likeliest few do (EVALUATION.md, session 24). Still most probable first. */
 void predictor_sample_hypotheses(predictor *p, double temperature);
 
-/* The k catalogue samples nearest to a descriptor in the model's reduced input space
- * (Euclidean over the whitened PCA components), nearest first: index (k), dist (k, may
- * be NULL). Returns the number written, or -1 with a message. */
+/* The k catalogue samples nearest to a descriptor in the model's reduced input space,
+ * nearest first: index (k), dist (k, may be NULL), measured as predictor_nearest_metric
+ * says. Returns the number written, or -1 with a message. */
 int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *index,
                       double *dist, char *err, size_t errlen);
+/* How predictor_nearest measures. PCA (the default): Euclidean over the PCA scores, each
+ * whitened component scaled back by its standard deviation, which is the distance of the
+ * standardised signed-log Gram values within the leading components. WHITENED: over the
+ * network's unit-variance inputs; it gives the many small components, most of them
+ * particular to one render, as much say as the few large ones that carry what renders
+ * share (EVALUATION.md, session 11), and retrieved worse (session 27). */
+typedef enum predictor_metric { PREDICTOR_METRIC_PCA, PREDICTOR_METRIC_WHITENED } predictor_metric;
+extern const char *const predictor_metric_names[2]; /* "pca", "whitened" */
+void predictor_nearest_metric(predictor *p, predictor_metric metric);
 
 /* Training (predictor_fit.c). The run is resumable: it lives in OUT.partial/ (checkpoint
  * after every epoch) and the same call continues it, to the same bytes as an uninterrupted
@@ -624,6 +633,7 @@ typedef struct evaluate_options {
     int top_k;                /* candidates of the -topk methods (>= 1) */
     double sample_hypotheses; /* 0: the predictor's k likeliest combinations; T > 0:
                                * predictor_sample_hypotheses(T) */
+    predictor_metric nearest_metric; /* the nearest methods' retrieval (PCA) */
     long long limit;          /* at most this many test rows (<= 0: all) */
     int threads;              /* workers (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;
@@ -667,6 +677,7 @@ typedef struct predict_options {
     double sample_hypotheses; /* 0: the top_k likeliest; T > 0: predictor_sample_hypotheses
                                * (PIPELINE_SAMPLE_HYPOTHESES) */
     int nearest;              /* catalogue candidates (8; 0: none) */
+    predictor_metric nearest_metric; /* their retrieval (predictor_nearest_metric; PCA) */
     refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
                                * colour_weight also scores the candidates and the final */
     const datagen_preset *search_preset; /* the candidates ("datagen") */
@@ -705,6 +716,7 @@ typedef struct search_options {
     const char *json_path;    /* NULL: none */
     const char *model_dir;    /* NULL: assets/model (when no dataset_path) */
     const char *dataset_path; /* search this dataset instead of a catalogue */
+    predictor_metric nearest_metric; /* a catalogue's retrieval (PCA) */
     const char *graph_path, *scene_path; /* NULL: found with pipeline_find_data */
     int k;
     int cols, tile;           /* the sheet (0: 5 columns of 160 pixels) */

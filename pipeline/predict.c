@@ -452,6 +452,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     if (!(pred = predictor_load(o->model_dir, err, errlen)))
         goto done;
     predictor_sample_hypotheses(pred, o->sample_hypotheses);
+    predictor_nearest_metric(pred, o->nearest_metric);
     const char *model_dir = predictor_dir(pred);
     sc.graph_path = o->graph_path;
     if (!sc.graph_path) {
@@ -777,6 +778,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
      * (a catalogue sample equal to a hypothesis) because another had their sub-shader */
     cJSON_AddNumberToObject(report, "candidates_merged", passed_over + n_cands - n_keep);
     cJSON_AddNumberToObject(report, "sample_hypotheses", o->sample_hypotheses);
+    cJSON_AddStringToObject(report, "nearest_metric", predictor_metric_names[o->nearest_metric]);
     cJSON *rj = cJSON_AddObjectToObject(report, "refinement");
     cJSON_AddStringToObject(rj, "method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(rj, "budget", o->refine.budget);

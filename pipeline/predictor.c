@@ -47,6 +47,7 @@ struct predictor {
     int nc;                         /* a conditional model's one-hot classes after them, or 0 */
     double temperature;             /* 0: the k likeliest combinations; > 0: sampled ones
                                      * (predictor_sample_hypotheses) */
+    predictor_metric metric;        /* predictor_nearest's distance */
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     nn_mlp net;
     size_t n_cat;
@@ -574,6 +575,10 @@ void predictor_sample_hypotheses(predictor *p, double temperature)
     p->temperature = temperature > 0 ? temperature : 0;
 }
 
+const char *const predictor_metric_names[2] = {"pca", "whitened"};
+
+void predictor_nearest_metric(predictor *p, predictor_metric metric) { p->metric = metric; }
+
 /* The likeliest combination and others drawn from the heads' distributions sharpened by
  * the temperature (class c of a head with probability proportional to p_c^(1/T)): up to k
  * distinct in out, most probable first like likeliest_combos', their logp under the heads.
@@ -762,13 +767,13 @@ int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *inde
     double *best = malloc(sizeof(double) * (size_t)k);
     if (!best)
         return pipeline_error(err, errlen, "out of memory");
-    int have = 0;
+    int have = 0, pca = p->metric == PREDICTOR_METRIC_PCA;
     for (size_t i = 0; i < p->n_cat; i++) {
         const float *c = p->cat_z + i * (size_t)p->k;
         double s = 0;
         for (int j = 0; j < p->k; j++) {
             double e = (double)c[j] - p->z[j];
-            s += e * e;
+            s += e * e * (pca ? (double)p->variance[j] : 1.0); /* whitened * sd = the score */
         }
         if (have == k && s >= best[k - 1])
             continue;

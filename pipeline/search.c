@@ -2,8 +2,8 @@
  * imsynth search: the materials nearest an image, as a labelled contact sheet (pipeline.h,
  * "search"; the thesis's "material database").
  *
- * Two sources. A model's catalogue (predictor_nearest: Euclidean in the model's whitened
- * PCA space, the retrieval `predict` and `evaluate` use); its samples keep no renders, so
+ * Two sources. A model's catalogue (predictor_nearest, by default Euclidean over the
+ * model's PCA scores: the retrieval `predict` and `evaluate` use); its samples keep no renders, so
  * each hit is rendered at the search preset. Or a dataset (every row, any size): the Gram
  * distance (evaluate_gram_distance) between the input's descriptor and each stored one,
  * streamed so memory stays one row, and the stored renders go on the sheet.
@@ -161,6 +161,7 @@ static int search_catalogue(const search_options *o, const image *input, hit **o
     if (!p)
         return -1;
     *predp = p;
+    predictor_nearest_metric(p, o->nearest_metric);
     pipeline_descriptor *pd = pipeline_descriptor_create(predictor_descriptor_kind(p), err, errlen);
     if (!pd)
         return -1;
@@ -320,7 +321,9 @@ int search_run(const search_options *o, char *err, size_t errlen)
     cJSON_AddStringToObject(list, "source", o->dataset_path ? o->dataset_path : "catalogue");
     cJSON_AddStringToObject(list, "distance", o->dataset_path
                                                   ? "Gram distance of the dataset's descriptor"
-                                                  : "Euclidean in the model's whitened PCA space");
+                                                  : o->nearest_metric == PREDICTOR_METRIC_PCA
+                                                        ? "Euclidean over the model's PCA scores"
+                                                        : "Euclidean in the model's whitened PCA space");
     cJSON *a = cJSON_AddArrayToObject(list, "hits");
     for (int i = 0; i < n; i++) {
         cJSON *h = cJSON_CreateObject();

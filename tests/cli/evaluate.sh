@@ -105,6 +105,8 @@ assert s['beats_mean_interval95'][0] <= s['beats_mean'] <= s['beats_mean_interva
 check "shares of inputs with their 95% intervals" 0 $?
 grep -q '"sample_hypotheses":[[:space:]]*0.5' "$tmp/r2/report.json"
 check "report.json names the hypotheses' temperature (predict's default, 0.5)" 0 $?
+grep -q '"nearest_metric":[[:space:]]*"pca"' "$tmp/r2/report.json"
+check "report.json names the retrieval's metric (predict's default, pca)" 0 $?
 if [ -z "$quick" ]; then
     grep -q 'render.exr vs shifted.exr' "$tmp/r2/report.json"
     check "the flash input takes the plain pair's floor" 0 $?

@@ -40,6 +40,35 @@ check "catalogue hits ordered" 0 $?
     --json "$tmp/h3.json" --quiet
 check "--catalogue names the same source" 0 $?
 cmp -s "$tmp/h2.json" "$tmp/h3.json"; check "--catalogue finds what --model finds" 0 $?
+"$imsynth" search "$tmp/r5.exr" --model "$tmp/model" -k 16 --preset draft -o "$tmp/s4.png" \
+    --json "$tmp/hp.json" --nearest-metric pca --quiet &&
+"$imsynth" search "$tmp/r5.exr" --model "$tmp/model" -k 16 --preset draft -o "$tmp/s5.png" \
+    --json "$tmp/hw.json" --nearest-metric whitened --quiet
+check "--nearest-metric pca and whitened" 0 $?
+# The PCA distance weighs each whitened component's difference by its variance, so per hit
+# min(var) dw^2 <= dp^2 <= max(var) dw^2; and the model's leading components vary far more
+# than their unit-variance whitened forms, so the two rankings' distances differ.
+py - "$tmp/hp.json" "$tmp/hw.json" "$tmp/model/transform.safetensors" "$tmp/h2.json" << 'PY'
+import json, struct, sys
+hp, hw = (json.load(open(f)) for f in sys.argv[1:3])
+raw = open(sys.argv[3], "rb").read()
+n = struct.unpack("<Q", raw[:8])[0]
+t = json.loads(raw[8:8 + n])["pca.variance"]
+a, b = t["data_offsets"]
+assert t["dtype"] == "F32", t
+var = struct.unpack("<%df" % ((b - a) // 4), raw[8 + n + a:8 + n + b])
+assert len(var) == 4 and min(var) > 1, var
+assert "PCA scores" in hp["distance"] and "whitened" in hw["distance"], (hp["distance"], hw["distance"])
+assert hp["hits"][:4] == json.load(open(sys.argv[4]))["hits"], "the default is not pca"
+dp = {x["id"]: x["distance"] for x in hp["hits"]}
+dw = {x["id"]: x["distance"] for x in hw["hits"]}
+assert len(dp) > 8 and set(dp) == set(dw), (dp, dw)  # k 16: the whole catalogue, both ways
+assert dp != dw
+for i in dp:
+    assert min(var) * dw[i] ** 2 * (1 - 1e-4) <= dp[i] ** 2 <= max(var) * dw[i] ** 2 * (1 + 1e-4), (i, dp[i], dw[i], var)
+assert sorted(dp.values()) == [x["distance"] for x in hp["hits"]]
+PY
+check "the PCA distance is the whitened one scaled by the components' variances" 0 $?
 
 "$imsynth" datagen --out "$tmp/nodesc.sqlite" --count 2 --preset draft --descriptor none --quiet
 "$imsynth" search "$tmp/r5.exr" --dataset "$tmp/nodesc.sqlite" -o "$tmp/x.png" 2> "$tmp/err"
