@@ -449,6 +449,12 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
                            path, j);
             goto fail;
         }
+    for (size_t j = 0; j < k; j++)
+        if (!(p->variance[j] >= 0)) { /* whitening divides by its root, retrieval weighs by it */
+            pipeline_error(err, errlen, "%s: principal component %zu has a negative variance",
+                           path, j);
+            goto fail;
+        }
     for (size_t j = 0; j < d; j++)
         if (!(p->scale[j] > 0) || !(p->std[j] > 0)) {
             pipeline_error(err, errlen, "%s: feature %zu has a scale or std that is not positive",

@@ -69,6 +69,18 @@ for i in dp:
 assert sorted(dp.values()) == [x["distance"] for x in hp["hits"]]
 PY
 check "the PCA distance is the whitened one scaled by the components' variances" 0 $?
+cp -r "$tmp/model" "$tmp/negvar"
+py - "$tmp/negvar/transform.safetensors" << 'PY'
+import json, struct, sys
+raw = bytearray(open(sys.argv[1], "rb").read())
+n = struct.unpack("<Q", raw[:8])[0]
+a = json.loads(raw[8:8 + n])["pca.variance"]["data_offsets"][0]
+raw[8 + n + a + 4:8 + n + a + 8] = struct.pack("<f", -2.0)
+open(sys.argv[1], "wb").write(raw)
+PY
+"$imsynth" search "$tmp/r5.exr" --model "$tmp/negvar" -o "$tmp/x.png" 2> "$tmp/err"
+check "a model with a negative component variance" 1 $?
+expect_stderr "names the file and the component" "negvar/transform.safetensors: principal component 1 has a negative"
 
 "$imsynth" datagen --out "$tmp/nodesc.sqlite" --count 2 --preset draft --descriptor none --quiet
 "$imsynth" search "$tmp/r5.exr" --dataset "$tmp/nodesc.sqlite" -o "$tmp/x.png" 2> "$tmp/err"
