@@ -62,8 +62,8 @@ static const char *const help =
     "  --sample-hypotheses T the predictor's top-k: its likeliest combination and K - 1\n"
     "                        drawn from its heads sharpened to p^(1/T) (default 0.5,\n"
     "                        predict's; 0: the K likeliest)\n"
-    "  --nearest-metric M    the nearest methods' retrieval: pca (default, predict's) or\n"
-    "                        whitened\n"
+    "  --nearest-metric M    the nearest methods' retrieval: pca (default, the stronger\n"
+    "                        baseline) or whitened (predict's candidates')\n"
     "  --refine N            renders of each refinement, its start's included (default 224,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
@@ -117,7 +117,9 @@ int cmd_evaluate(int argc, char **argv)
     predict_options_default(&po);
     o.refine = po.refine;
     o.sample_hypotheses = po.sample_hypotheses;
-    o.nearest_metric = po.nearest_metric;
+    /* The nearest rows are the retrieval baseline: the stronger retrieval (PCA scores;
+     * EVALUATION.md, session 27), not predict's candidates' (pipeline.h) */
+    o.nearest_metric = PREDICTOR_METRIC_PCA;
     o.refine_preset = po.refine_preset;
     int open_line = 0;
     o.progress = progress;

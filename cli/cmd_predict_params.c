@@ -29,7 +29,7 @@ static const char *const help =
     "                         \"params\": {...}}, ...]}, likeliest first\n"
     "  --nearest N            also list the N nearest training samples (id, distance) in\n"
     "                         H.json's \"nearest\" (retrieval in the model's catalogue)\n"
-    "  --nearest-metric M     that retrieval's distance: pca (default, predict's) or whitened\n";
+    "  --nearest-metric M     that retrieval's distance: pca (default, search's) or whitened\n";
 
 static int write_params_atomic(const char *path, const char *const *names, const float *v,
                                int n, char *err, size_t errlen)

@@ -383,7 +383,9 @@ int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *inde
  * standardised signed-log Gram values within the leading components. WHITENED: over the
  * network's unit-variance inputs; it gives the many small components, most of them
  * particular to one render, as much say as the few large ones that carry what renders
- * share (EVALUATION.md, session 11), and retrieved worse (session 27). */
+ * share (EVALUATION.md, session 11), and retrieves samples farther under the Gram
+ * distance (session 27). Predict's candidates still use it: the refined result from its
+ * starts was no farther (predict_options_default). */
 typedef enum predictor_metric { PREDICTOR_METRIC_PCA, PREDICTOR_METRIC_WHITENED } predictor_metric;
 extern const char *const predictor_metric_names[2]; /* "pca", "whitened" */
 void predictor_nearest_metric(predictor *p, predictor_metric metric);
@@ -677,7 +679,7 @@ typedef struct predict_options {
     double sample_hypotheses; /* 0: the top_k likeliest; T > 0: predictor_sample_hypotheses
                                * (PIPELINE_SAMPLE_HYPOTHESES) */
     int nearest;              /* catalogue candidates (8; 0: none) */
-    predictor_metric nearest_metric; /* their retrieval (predictor_nearest_metric; PCA) */
+    predictor_metric nearest_metric; /* their retrieval (predictor_nearest_metric; whitened) */
     refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
                                * colour_weight also scores the candidates and the final */
     const datagen_preset *search_preset; /* the candidates ("datagen") */
@@ -696,7 +698,7 @@ typedef struct predict_options {
     void *progress_ctx;
 } predict_options;
 
-/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8, refinement coordinate-sweep
+/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement coordinate-sweep
  * with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
  * light auto, colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);

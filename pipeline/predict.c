@@ -48,6 +48,10 @@ void predict_options_default(predict_options *o)
      * 8 drawn give the renderer a real choice (EVALUATION.md, sessions 24 and 26). */
     o->sample_hypotheses = PIPELINE_SAMPLE_HYPOTHESES;
     o->nearest = 8;
+    /* Its catalogue candidates by the whitened components: the PCA scores give closer
+     * starts (9 of 11 inputs where they differ, of 28) but the refined result is no closer
+     * (4 closer, 7 farther under the loss; EVALUATION.md, session 27). */
+    o->nearest_metric = PREDICTOR_METRIC_WHITENED;
     refine_options_default(&o->refine);
     /* The search renders at draft (1 shading point a pixel, a quarter of datagen's time):
      * 224 of them take about the time of 64 at datagen and end closer to the input on 33

@@ -3,7 +3,7 @@
  * "search"; the thesis's "material database").
  *
  * Two sources. A model's catalogue (predictor_nearest, by default Euclidean over the
- * model's PCA scores: the retrieval `predict` and `evaluate` use); its samples keep no renders, so
+ * model's PCA scores, as `evaluate`'s nearest rows); its samples keep no renders, so
  * each hit is rendered at the search preset. Or a dataset (every row, any size): the Gram
  * distance (evaluate_gram_distance) between the input's descriptor and each stored one,
  * streamed so memory stays one row, and the stored renders go on the sheet.

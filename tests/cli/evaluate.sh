@@ -106,7 +106,7 @@ check "shares of inputs with their 95% intervals" 0 $?
 grep -q '"sample_hypotheses":[[:space:]]*0.5' "$tmp/r2/report.json"
 check "report.json names the hypotheses' temperature (predict's default, 0.5)" 0 $?
 grep -q '"nearest_metric":[[:space:]]*"pca"' "$tmp/r2/report.json"
-check "report.json names the retrieval's metric (predict's default, pca)" 0 $?
+check "report.json names the retrieval's metric (evaluate's default, pca)" 0 $?
 if [ -z "$quick" ]; then
     grep -q 'render.exr vs shifted.exr' "$tmp/r2/report.json"
     check "the flash input takes the plain pair's floor" 0 $?

@@ -141,14 +141,14 @@ check "bad --colour-phase" 2 $?
 # ones: the same first one as the beam's, and less probable others; report.json says so
 # (the default, T = 0.5) against the beam (--sample-hypotheses 0)
 "$imsynth" predict "$input" -o "$tmp/sb" $fast --light scene --nearest 0 --top-k 3 --refine 1 \
-    --sample-hypotheses 0 --nearest-metric whitened &&
+    --sample-hypotheses 0 --nearest-metric pca &&
     "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 --refine 1
 check "predict --sample-hypotheses 0, and the default" 0 $?
 py - "$tmp/sb/report.json" "$tmp/ss/report.json" << 'PY'
 import json, sys
 b, s = (json.load(open(f)) for f in sys.argv[1:3])
 assert b["sample_hypotheses"] == 0 and s["sample_hypotheses"] == 0.5, (b, s)
-assert b["nearest_metric"] == "whitened" and s["nearest_metric"] == "pca", (b, s)
+assert b["nearest_metric"] == "pca" and s["nearest_metric"] == "whitened", (b, s)
 pb = sorted((c["probability"] for c in b["candidates"]), reverse=True)
 ps = sorted((c["probability"] for c in s["candidates"]), reverse=True)
 assert len(pb) == len(ps) == 3 and ps[0] == pb[0], (pb, ps)
