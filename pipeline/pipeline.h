@@ -384,8 +384,8 @@ int predictor_nearest(predictor *p, const float *descriptor, int k, size_t *inde
  * network's unit-variance inputs; it gives the many small components, most of them
  * particular to one render, as much say as the few large ones that carry what renders
  * share (EVALUATION.md, session 11), and retrieves samples farther under the Gram
- * distance (session 27). Predict's candidates still use it: the refined result from its
- * starts was no farther (predict_options_default). */
+ * distance (session 27). Predict's candidates still use it: from the PCA scores' closer
+ * starts its refined result was no closer (predict_options_default). */
 typedef enum predictor_metric { PREDICTOR_METRIC_PCA, PREDICTOR_METRIC_WHITENED } predictor_metric;
 extern const char *const predictor_metric_names[2]; /* "pca", "whitened" */
 void predictor_nearest_metric(predictor *p, predictor_metric metric);
@@ -698,8 +698,8 @@ typedef struct predict_options {
     void *progress_ctx;
 } predict_options;
 
-/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement coordinate-sweep
- * with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
+/* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement
+ * coordinate-sweep with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
  * light auto, colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
