@@ -990,6 +990,19 @@ static int make_taps(int n_src, int n_dst, resize_taps **taps_out, float **weigh
     return 0;
 }
 
+int image_rotate_ccw(const image *src, image *dst)
+{
+    if (image_alloc(dst, src->height, src->width, src->channels))
+        return -1;
+    size_t ch = (size_t)src->channels;
+    for (int r = 0; r < dst->height; r++)
+        for (int c = 0; c < dst->width; c++)
+            memcpy(dst->pixels + ((size_t)r * (size_t)dst->width + (size_t)c) * ch,
+                   src->pixels + ((size_t)c * (size_t)src->width + (size_t)(src->width - 1 - r)) * ch,
+                   ch * sizeof(float));
+    return 0;
+}
+
 int image_resize(const image *src, int width, int height, image *dst)
 {
     memset(dst, 0, sizeof *dst);

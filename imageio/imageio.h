@@ -85,6 +85,12 @@ int image_write_png16_linear(const char *path, const image *img, char *err, size
  * source or target size); dst is then zeroed. */
 int image_resize(const image *src, int width, int height, image *dst);
 
+/* The image turned a quarter counterclockwise, as a viewer sees it: dst is height x width
+ * and dst's top-left pixel is src's top-right (dst[r][c] = src[c][width - 1 - r]).
+ * Exact: pixels are moved, not resampled. Returns 0, or -1 when out of memory (dst is
+ * then zeroed). */
+int image_rotate_ccw(const image *src, image *dst);
+
 /* How far an image is from a reference (imsynth compare; compare.c). Metrics are over
  * the first 3 channels (RGB), every pixel weighted equally, accumulated in double.
  * The reference is ref_a, or the mean (a + b) / 2 of two independent renders a and b of

@@ -178,6 +178,17 @@ typedef struct sg_extract_options {
  * without groups (free with sg_graph_free), or NULL with a message. */
 sg_graph *sg_extract(const sg_graph *g, const sg_extract_options *opt, char *err, size_t errlen);
 
+/* A copy of g with its texture space turned by `degrees` about +Z (the plane's normal),
+ * as an artist turns a procedural material in Blender: every link from a Texture
+ * Coordinate node's Generated, UV or Object output (in the material and in its groups)
+ * goes through a new Mapping node (type Point, Rotation (0, 0, degrees in radians),
+ * label "Texture Rotation"). A material that read position p now reads R p (R the turn
+ * by `degrees`): what its render showed at R p now shows at p, so the render turns by
+ * -degrees (clockwise as the camera sees it, for positive degrees). Normal, Camera,
+ * Window and Reflection are left alone. Returns a new graph (free with sg_graph_free), or NULL with
+ * a message. */
+sg_graph *sg_graph_rotate_texture(const sg_graph *g, double degrees, char *err, size_t errlen);
+
 /* Nodes as Blender shows them with every group expanded in place: a group node counts
  * as its group's nodes (recursively), not as one. Saturates at INT_MAX; -1 when out of
  * memory. */
