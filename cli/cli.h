@@ -46,6 +46,7 @@ typedef struct cli_graph_args {
     const char *params_path; /* NULL: none */
     long long seed;          /* -1: none */
     sg_blender_mode blender;
+    double texture_rotation; /* degrees about +Z (sg_graph_rotate_texture); 0: none */
     const char *rest[32];
     int n_rest;
     char graph_buf[1024]; /* the default graph's resolved path */
@@ -54,8 +55,8 @@ typedef struct cli_graph_args {
 /* Returns EXIT_OK or EXIT_USAGE (after printing why). */
 int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args *ga);
 /* Loads the graph (the super-shader found by pipeline_find_data when none was given; then
- * ga->graph_path is set to it) and binds --params / --seed if given; NULL after printing
- * why. */
+ * ga->graph_path is set to it), binds --params / --seed if given and turns its texture
+ * space by --texture-rotation; NULL after printing why. */
 struct sg_graph *cli_load_bound_graph(const char *sub, cli_graph_args *ga);
 /* `given` if not NULL, else data file `rel` found by pipeline_find_data (into buf); NULL
  * after printing why. */

@@ -18,7 +18,15 @@ int cli_parse_graph_args(const char *sub, int argc, char **argv, cli_graph_args 
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *val = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--params") || !strcmp(a, "--seed") || !strcmp(a, "--blender")) {
+        if (!strcmp(a, "--texture-rotation")) {
+            if (!val) {
+                cli_error(sub, "%s needs a value", a);
+                return EXIT_USAGE;
+            }
+            i++;
+            if (cli_parse_double(sub, a, val, -360.0, 360.0, &ga->texture_rotation))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--params") || !strcmp(a, "--seed") || !strcmp(a, "--blender")) {
             if (!val) {
                 cli_error(sub, "%s needs a value", a);
                 return EXIT_USAGE;
@@ -83,6 +91,12 @@ sg_graph *cli_load_bound_graph(const char *sub, cli_graph_args *ga)
     sg_graph *g = pipeline_load_graph(ga->graph_path, ga->params_path, ga->seed, err, sizeof err);
     if (!g)
         cli_error(sub, "%s", err);
+    if (g && ga->texture_rotation != 0.0) {
+        sg_graph *turned = sg_graph_rotate_texture(g, ga->texture_rotation, err, sizeof err);
+        sg_graph_free(g);
+        if (!(g = turned))
+            cli_error(sub, "%s: %s", ga->graph_path, err);
+    }
     return g;
 }
 

@@ -18,7 +18,9 @@ static const char *const help =
     "  --seed N          frame N's parameters\n"
     "  -o, --output F    the material (required)\n"
     "  --full            no extraction: the graph as it is, parameters bound\n"
-    "  --blender 4|3     semantics used when folding constants (default 4)\n";
+    "  --blender 4|3     semantics used when folding constants (default 4)\n"
+    "  --texture-rotation DEG  turn the texture space about the plane's normal (a Mapping\n"
+    "                    node; `imsynth predict`'s report.json gives its texture_rotation)\n";
 
 int cmd_export(int argc, char **argv)
 {

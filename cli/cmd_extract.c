@@ -16,6 +16,8 @@ static const char *const help =
     "  --seed N          instead of --params: frame N's parameters (as imsynth sample)\n"
     "  -o, --output F    the sub-shader, in the graph format (required)\n"
     "  --blender 4|3     semantics used when folding constants (default 4)\n"
+    "  --texture-rotation DEG  turn the texture space about the plane's normal (a Mapping\n"
+    "                    node; `imsynth predict`'s report.json gives its texture_rotation)\n"
     "  --stats           print node counts and extraction time on stderr\n";
 
 int cmd_extract(int argc, char **argv)

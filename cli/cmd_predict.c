@@ -40,6 +40,10 @@ static const char *const help =
     "  --model DIR            a model from imsynth fit-predictor (default assets/model)\n"
     "  --light scene|flash|auto  where the input's light was: our point-light scene, a\n"
     "                         flash at the camera, or auto (default): both, the better kept\n"
+    "  --rotation 0|90|auto   which way the input's pattern may run: as the super-shader\n"
+    "                         makes bricks, planks and bands (0, default: along X), turned\n"
+    "                         a quarter (90: along Y; the material gets a Mapping node), or\n"
+    "                         auto: both ways' candidates, the better kept\n"
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --sample-hypotheses T  the likeliest and K - 1 drawn from the selectors' distributions\n"
     "                         sharpened to p^(1/T) (default 0.5; 0: the K likeliest)\n"
@@ -141,6 +145,16 @@ int cmd_predict(int argc, char **argv)
                 return EXIT_USAGE;
             }
             o.light = (predict_light)k;
+        } else if (!strcmp(a, "--rotation")) {
+            int k = -1;
+            for (int j = 0; j < 3; j++)
+                if (!strcmp(val, predict_rotation_names[j]))
+                    k = j;
+            if (k < 0) {
+                cli_error(sub, "--rotation: \"%s\" is not 0, 90 or auto", val);
+                return EXIT_USAGE;
+            }
+            o.rotation = (predict_rotation)k;
         } else if (!strcmp(a, "--sample-hypotheses")) {
             if (cli_parse_sample_hypotheses(sub, a, val, &o.sample_hypotheses))
                 return EXIT_USAGE;

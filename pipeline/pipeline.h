@@ -668,6 +668,13 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen);
  */
 typedef enum predict_light { PREDICT_LIGHT_SCENE, PREDICT_LIGHT_FLASH, PREDICT_LIGHT_AUTO } predict_light;
 extern const char *const predict_light_names[3]; /* "scene", "flash", "auto" */
+/* Which way the input's pattern runs. The super-shader's bricks, planks and bands run
+ * along X; a turn puts them along Y (sg_graph_rotate_texture). 0: as the super-shader
+ * makes them; 90: turned a quarter (the predictor and the catalogue see the input turned
+ * back, and the material carries a Mapping node); auto: the candidates of both, the loss
+ * keeps the better. */
+typedef enum predict_rotation { PREDICT_ROTATION_0, PREDICT_ROTATION_90, PREDICT_ROTATION_AUTO } predict_rotation;
+extern const char *const predict_rotation_names[3]; /* "0", "90", "auto" */
 
 typedef struct predict_options {
     const char *image_path;
@@ -686,6 +693,7 @@ typedef struct predict_options {
     const datagen_preset *refine_preset; /* the refinement's renders ("draft") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */
+    predict_rotation rotation; /* the texture rotations tried (0, 90, or both: auto) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;
     uint64_t seed;            /* render noise (one seed for the whole run) */
@@ -700,7 +708,7 @@ typedef struct predict_options {
 
 /* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement
  * coordinate-sweep with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
- * light auto, colour_weight 4, blender 4, seed 1. */
+ * light auto, rotation 0, colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);

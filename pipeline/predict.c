@@ -65,11 +65,17 @@ void predict_options_default(predict_options *o)
      * 10% of a run), and the light is picked by the loss, which on the 18 inputs of known
      * light tried picked it right every time (EVALUATION.md, session 12). */
     o->light = PREDICT_LIGHT_AUTO;
+    o->rotation = PREDICT_ROTATION_0;
     o->blender = SG_BLENDER_4;
     o->seed = 1;
 }
 
 const char *const predict_light_names[3] = {"scene", "flash", "auto"};
+const char *const predict_rotation_names[3] = {"0", "90", "auto"};
+/* The quarter turn of PREDICT_ROTATION_90: the material reads its coordinates turned by
+ * +90 degrees, so its render turns by -90 (clockwise); the predictor sees the input
+ * turned back (image_rotate_ccw). */
+#define QUARTER_TURN_DEGREES 90.0
 
 /* ---------------------------------------------------------------- the loss --------- */
 
@@ -80,7 +86,8 @@ typedef struct cached {
 
 typedef struct scorer {
     const predict_options *o;
-    sg_graph *graph;
+    sg_graph *graph;               /* the one being scored: graphs[turn] */
+    sg_graph *graphs[2];           /* the super-shader as it is, and turned a quarter */
     sg_params params;
     const char *graph_path;
     const render_scene *scenes[2]; /* plain, flash */
@@ -213,6 +220,7 @@ static const char *const from_names[2] = {"predictor", "catalogue"};
 
 typedef struct candidate {
     int from, rank;
+    int turn;     /* 0: the super-shader as it is; 1: turned a quarter (graphs[1]) */
     double prior; /* the predictor's probability, or the catalogue distance */
     long long id; /* catalogue id, or -1 */
     double g[2], c[2], loss[2]; /* per scene; NAN when not rendered there */
@@ -410,6 +418,81 @@ static int refine_active_cb(void *ctx, const float *params, uint8_t *active, cha
     return active_cb(rc->sc, params, active, err, errlen);
 }
 
+/* The candidates of one view of the input (as it is, or turned back a quarter): the
+ * predictor's first --top-k hypotheses whose sub-shaders differ, then the catalogue's first
+ * --nearest such samples, as evaluate's -topk methods choose theirs: up to 4x as many are
+ * asked for, because hypotheses that differ only in what the sub-shader ignores render
+ * alike. `graph` is the super-shader they will be rendered with, `desc` and `view` what
+ * the predictor and the catalogue see. Written from params and cands on (room for
+ * 4 top_k + 4 nearest, each at most 256); *passed_over grows by those skipped. Returns
+ * how many, or -1 with a message. */
+static int view_candidates(const predict_options *o, predictor *pred, sg_graph *graph,
+                           const float *desc, const image *view, int turn, int np,
+                           float *params, candidate *cands, int *passed_over, char *err,
+                           size_t errlen)
+{
+    int ask_p = 4 * o->top_k > 256 ? 256 : 4 * o->top_k;
+    int ask_n = 4 * o->nearest > 256 ? 256 : 4 * o->nearest;
+    int rc = -1;
+    double *prob = malloc((size_t)ask_p * sizeof *prob);
+    size_t *nindex = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *nindex);
+    double *ndist = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *ndist);
+    int *keep = malloc((size_t)(ask_p + ask_n) * sizeof *keep);
+    if (!prob || !nindex || !ndist || !keep) {
+        pipeline_error(err, errlen, "out of memory");
+        goto out;
+    }
+    float stats[TEXSTATS_N];
+    int use_stats = predictor_uses_texstats(pred);
+    if (use_stats && pipeline_texstats(view, stats, err, errlen))
+        goto out;
+    int n_pred = predictor_predict(pred, desc, use_stats ? stats : NULL, ask_p, params, prob,
+                                   err, errlen);
+    if (n_pred < 0)
+        goto out;
+    for (int i = 0; i < n_pred; i++)
+        cands[i] = (candidate){.from = FROM_PREDICTOR, .rank = i, .turn = turn, .prior = prob[i], .id = -1};
+    int n_near = 0;
+    if (o->nearest > 0 && predictor_catalogue_size(pred) > 0) {
+        n_near = predictor_nearest(pred, desc, ask_n, nindex, ndist, err, errlen);
+        if (n_near < 0)
+            goto out;
+        for (int i = 0; i < n_near; i++) {
+            long long id;
+            memcpy(params + (size_t)(n_pred + i) * np,
+                   predictor_catalogue_params(pred, nindex[i], &id), (size_t)np * sizeof(float));
+            cands[n_pred + i] = (candidate){
+                .from = FROM_CATALOGUE, .rank = i, .turn = turn, .prior = ndist[i], .id = id};
+        }
+    }
+    /* Each list's first distinct ones, moved to the front (keep[] ascends, so in place). */
+    int n = 0;
+    for (int src = 0; src < 2; src++) {
+        int first = src ? n_pred : 0, count = src ? n_near : n_pred, want = src ? o->nearest : o->top_k;
+        int got = count > 0 ? pipeline_distinct_subshaders(graph, o->blender,
+                                                           params + (size_t)first * np, count,
+                                                           want, keep, err, errlen)
+                            : 0;
+        if (got < 0)
+            goto out;
+        for (int j = 0; j < got; j++) {
+            assert(n + j <= first + keep[j]);
+            memmove(params + (size_t)(n + j) * np, params + (size_t)(first + keep[j]) * np,
+                    (size_t)np * sizeof(float));
+            cands[n + j] = cands[first + keep[j]];
+        }
+        *passed_over += got ? keep[got - 1] + 1 - got : 0;
+        n += got;
+    }
+    rc = n;
+out:
+    free(prob);
+    free(nindex);
+    free(ndist);
+    free(keep);
+    return rc;
+}
+
 int predict_run(const predict_options *o, char *err, size_t errlen)
 {
     double t_start = pipeline_now(), t_stage = t_start;
@@ -428,8 +511,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     render_scene *scenes[2] = {NULL, NULL};
     float *cand_params = NULL, *best = NULL;
     candidate *cands = NULL;
-    double *prob = NULL, *ndist = NULL;
-    size_t *nindex = NULL;
+    float *turn_desc = NULL; /* the descriptor of the input turned back a quarter */
     int *keep = NULL, *order = NULL;
     double *start_loss = NULL;
     float *starts = NULL;
@@ -485,7 +567,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         goto done;
     sc.target = &input;
 
-    if (!(sc.graph = pipeline_load_graph(sc.graph_path, NULL, -1, err, errlen)))
+    if (!(sc.graph = sc.graphs[0] = pipeline_load_graph(sc.graph_path, NULL, -1, err, errlen)))
         goto done;
     char e[SG_ERROR_MAX] = "";
     if (sg_params_from_graph(sc.graph, &sc.params, e, sizeof e) < 0) {
@@ -523,75 +605,66 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     t_describe = pipeline_now() - t_stage;
     t_stage = pipeline_now();
 
-    /* Candidates: the predictor's first --top-k hypotheses whose sub-shaders differ, then
-     * the catalogue's first --nearest such samples, as evaluate's -topk methods choose
-     * theirs: up to 4x as many are asked for, because hypotheses that differ only in what
-     * the sub-shader ignores render alike. The two lists are then merged. */
-    int ask_p = 4 * o->top_k > 256 ? 256 : 4 * o->top_k;
-    int ask_n = 4 * o->nearest > 256 ? 256 : 4 * o->nearest;
-    int n_all = ask_p + ask_n;
-    cand_params = malloc((size_t)n_all * (size_t)np * sizeof(float));
-    cands = calloc((size_t)n_all, sizeof *cands);
-    prob = malloc((size_t)ask_p * sizeof *prob);
-    nindex = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *nindex);
-    ndist = malloc((size_t)(ask_n ? ask_n : 1) * sizeof *ndist);
-    keep = malloc((size_t)n_all * sizeof *keep);
+    /* Candidates: for each texture rotation tried, those of the input seen that way
+     * (view_candidates); the quarter-turned ones are predicted from the input turned back,
+     * so that bands across the image come out along the super-shader's X. */
+    int n_turns = o->rotation == PREDICT_ROTATION_AUTO ? 2 : 1;
+    int first_turn = o->rotation == PREDICT_ROTATION_90;
+    int per_view = (4 * o->top_k > 256 ? 256 : 4 * o->top_k) + (4 * o->nearest > 256 ? 256 : 4 * o->nearest);
+    cand_params = malloc((size_t)(n_turns * per_view) * (size_t)np * sizeof(float));
+    cands = calloc((size_t)(n_turns * per_view), sizeof *cands);
+    keep = malloc((size_t)(n_turns * per_view) * sizeof *keep);
     best = malloc((size_t)np * sizeof *best);
-    if (!cand_params || !cands || !prob || !nindex || !ndist || !keep || !best) {
+    if (!cand_params || !cands || !keep || !best) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    float stats[TEXSTATS_N];
-    int use_stats = predictor_uses_texstats(pred);
-    if (use_stats && pipeline_texstats(&input, stats, err, errlen))
-        goto done;
-    int n_pred = predictor_predict(pred, sc.target_desc, use_stats ? stats : NULL, ask_p,
-                                   cand_params, prob, err, errlen);
-    if (n_pred < 0)
-        goto done;
-    for (int i = 0; i < n_pred; i++)
-        cands[i] = (candidate){.from = FROM_PREDICTOR, .rank = i, .prior = prob[i], .id = -1};
-    int n_near = 0;
-    if (o->nearest > 0 && predictor_catalogue_size(pred) > 0) {
-        n_near = predictor_nearest(pred, sc.target_desc, ask_n, nindex, ndist, err, errlen);
-        if (n_near < 0)
-            goto done;
-        for (int i = 0; i < n_near; i++) {
-            long long id;
-            memcpy(cand_params + (size_t)(n_pred + i) * np,
-                   predictor_catalogue_params(pred, nindex[i], &id), (size_t)np * sizeof(float));
-            cands[n_pred + i] = (candidate){.from = FROM_CATALOGUE, .rank = i, .prior = ndist[i], .id = id};
+    int n_keep = 0, n_cands = 0, passed_over = 0;
+    for (int t = first_turn; t < first_turn + n_turns; t++) {
+        const float *desc = sc.target_desc;
+        image turned = {0};
+        if (t == 1) {
+            if (!(sc.graphs[1] = sg_graph_rotate_texture(sc.graphs[0], QUARTER_TURN_DEGREES, e, sizeof e))) {
+                pipeline_error(err, errlen, "%s: %s", sc.graph_path, e);
+                goto done;
+            }
+            if (!(turn_desc = malloc(dsize * sizeof(float))) || image_rotate_ccw(&input, &turned)) {
+                pipeline_error(err, errlen, "out of memory");
+                goto done;
+            }
+            if (pipeline_descriptor_compute(sc.desc, &turned, turn_desc, err, errlen)) {
+                image_free(&turned);
+                goto done;
+            }
+            desc = turn_desc;
         }
-    }
-    /* Each list's first distinct ones, moved to the front (keep[] ascends, so in place). */
-    int n_cands = 0, passed_over = 0;
-    for (int src = 0; src < 2; src++) {
-        int first = src ? n_pred : 0, n = src ? n_near : n_pred, want = src ? o->nearest : o->top_k;
-        int got = n > 0 ? pipeline_distinct_subshaders(sc.graph, o->blender,
-                                                       cand_params + (size_t)first * np, n, want,
-                                                       keep, err, errlen)
-                        : 0;
+        int first = n_cands, got_kept = 0;
+        int got = view_candidates(o, pred, sc.graphs[t], desc, t ? &turned : &input, t, np,
+                                  cand_params + (size_t)first * np, cands + first, &passed_over,
+                                  err, errlen);
+        image_free(&turned);
         if (got < 0)
             goto done;
-        for (int j = 0; j < got; j++) {
-            assert(n_cands + j <= first + keep[j]);
-            memmove(cand_params + (size_t)(n_cands + j) * np,
-                    cand_params + (size_t)(first + keep[j]) * np, (size_t)np * sizeof(float));
-            cands[n_cands + j] = cands[first + keep[j]];
-        }
-        passed_over += got ? keep[got - 1] + 1 - got : 0;
+        /* A catalogue sample equal to a hypothesis is merged into it. */
+        got_kept = pipeline_distinct_subshaders(sc.graphs[t], o->blender,
+                                                cand_params + (size_t)first * np, got, got,
+                                                keep + n_keep, err, errlen);
+        if (got_kept < 0)
+            goto done;
+        for (int j = 0; j < got_kept; j++)
+            keep[n_keep + j] += first;
+        n_keep += got_kept;
         n_cands += got;
     }
-    int n_keep = pipeline_distinct_subshaders(sc.graph, o->blender, cand_params, n_cands, n_cands,
-                                              keep, err, errlen);
-    if (n_keep < 0)
-        goto done;
+    sc.graph = sc.graphs[first_turn];
 
-    /* Score each distinct candidate in each scene tried; the best (candidate, scene) wins. */
+    /* Score each distinct candidate in each scene tried, in its own rotation; the best
+     * (candidate, scene) wins. */
     int best_k = -1, best_scene = 0;
     double best_loss = INFINITY;
     for (int j = 0; j < n_keep; j++) {
         candidate *c = &cands[keep[j]];
+        sc.graph = sc.graphs[c->turn];
         c->g[0] = c->g[1] = c->c[0] = c->c[1] = c->loss[0] = c->loss[1] = NAN;
         for (int s = 0; s < 2; s++) {
             if (!scenes[s])
@@ -618,21 +691,26 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     int renders_candidates = sc.renders;
     double render_candidates_s = sc.render_s, describe_candidates_s = sc.describe_s;
 
-    /* Refine the winner in its scene, or race the --starts best there (refine_race). */
+    /* Refine the winner in its scene and rotation, or race the --starts best there
+     * (refine_race). */
+    int best_turn = cands[best_k].turn;
+    sc.graph = sc.graphs[best_turn];
     int n_starts = 0;
     order = malloc((size_t)n_keep * sizeof *order);
     kind = malloc((size_t)np * sizeof *kind);
     choices = malloc((size_t)np * sizeof *choices);
     start_loss = malloc((size_t)n_keep * sizeof *start_loss);
     if (order && start_loss) {
-        /* The starts: the candidates in the winner's scene by G + start_colour_weight C
-         * (ties: the earlier); those without a finite loss last, cut. The scene is the
-         * search loss's pick (best_k's); the start need not be best_k: the search mends
-         * colour more easily than texture (docs/predict.md, "The starts"). */
+        /* The starts: the candidates in the winner's scene and rotation by G +
+         * start_colour_weight C (ties: the earlier); those without a finite loss (or of
+         * the other rotation) last, cut. The scene and rotation are the search loss's pick
+         * (best_k's); the start need not be best_k: the search mends colour more easily
+         * than texture (docs/predict.md, "The starts"). */
         for (int j = 0; j < n_keep; j++) {
             const candidate *c = &cands[keep[j]];
-            double l = pipeline_refine_loss(c->g[best_scene], c->c[best_scene],
-                                            o->refine.start_colour_weight);
+            double l = c->turn != best_turn ? NAN
+                                            : pipeline_refine_loss(c->g[best_scene], c->c[best_scene],
+                                                                   o->refine.start_colour_weight);
             start_loss[j] = isfinite(l) ? l : NAN; /* finite iff G and C are, as the loss */
             n_starts += !isnan(start_loss[j]);
             pipeline_insert_by_key(order, j, start_loss);
@@ -731,6 +809,10 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddStringToObject(report, "supershader", sc.graph_path);
     cJSON_AddStringToObject(report, "light_asked", predict_light_names[o->light]);
     cJSON_AddStringToObject(report, "light", best_scene ? "flash" : "scene");
+    cJSON_AddStringToObject(report, "rotation_asked", predict_rotation_names[o->rotation]);
+    /* material.json carries the turn; params.json is the super-shader's parameters before
+     * it (`imsynth extract --params params.json --texture-rotation R` gives material.json). */
+    cJSON_AddNumberToObject(report, "texture_rotation", best_turn ? QUARTER_TURN_DEGREES : 0.0);
     cJSON *lossj = cJSON_AddObjectToObject(report, "loss");
     cJSON_AddStringToObject(lossj, "definition",
                             "G + colour_weight * C; G: Gram distance of the model's descriptor; "
@@ -752,6 +834,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         cJSON *cj = cJSON_CreateObject();
         cJSON_AddStringToObject(cj, "from", from_names[c->from]);
         cJSON_AddNumberToObject(cj, "rank", c->rank);
+        cJSON_AddNumberToObject(cj, "texture_rotation", c->turn ? QUARTER_TURN_DEGREES : 0.0);
         if (c->from == FROM_PREDICTOR)
             cJSON_AddItemToObject(cj, "probability", num(c->prior));
         else {
@@ -868,9 +951,7 @@ done:
     free(choices);
     free(cand_params);
     free(cands);
-    free(prob);
-    free(nindex);
-    free(ndist);
+    free(turn_desc);
     free(keep);
     free(order);
     free(start_loss);
@@ -881,7 +962,8 @@ done:
     free(sc.cache);
     pipeline_descriptor_free(sc.desc);
     sg_params_free(&sc.params);
-    sg_graph_free(sc.graph);
+    sg_graph_free(sc.graphs[0]);
+    sg_graph_free(sc.graphs[1]);
     for (int s = 0; s < 2; s++)
         render_scene_free(scenes[s]);
     predictor_free(pred);

@@ -35,5 +35,17 @@ grep -q "bad.json" "$tmp/err" && passed=$((passed + 1)) || { echo "FAIL: message
 "$imsynth" extract --seed 1 --params "$tmp/p.json" -o "$tmp/x.json" 2> "$tmp/err"; check "--seed and --params" 2 $?
 "$imsynth" export --seed 1 2> "$tmp/err"; check "missing -o" 2 $?
 
+# --texture-rotation: the same material turned (one Mapping node more, evaluating to the
+# unturned image turned clockwise: tests/unit/test_texture_rotation.c); 360 is no turn
+"$imsynth" extract --seed 7 --texture-rotation 90 -o "$tmp/turned.json" 2> "$tmp/err"; check "extract --texture-rotation 90" 0 $?
+[ "$(grep -c '"ShaderNodeMapping"' "$tmp/turned.json")" = 1 ] && ! grep -q '"ShaderNodeMapping"' "$tmp/sub.json" &&
+    passed=$((passed + 1)) || { echo "FAIL: the turn is not one Mapping node"; failed=$((failed + 1)); }
+"$imsynth" export --seed 7 --texture-rotation 360 -o "$tmp/t360.json" 2> "$tmp/err"; check "export --texture-rotation 360" 0 $?
+"$imsynth" eval-graph "$tmp/t360.json" --socket "Principled BSDF:Base Color" -o "$tmp/t360.exr" --size 16 2> "$tmp/err"
+cmp -s "$tmp/t360.exr" "$tmp/sub.exr" && passed=$((passed + 1)) || { echo "FAIL: a turn of 360 changed the material"; failed=$((failed + 1)); }
+for bad in abc nan 400; do
+    "$imsynth" extract --seed 7 --texture-rotation $bad -o "$tmp/x.json" 2> "$tmp/err"; check "--texture-rotation $bad" 2 $?
+done
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

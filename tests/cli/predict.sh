@@ -17,7 +17,7 @@ check "a draft dataset" 0 $?
 check "a small model" 0 $?
 
 input="$root/tests/handmade/brick_wall/render.exr"
-fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet"
+fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet --rotation auto"
 "$imsynth" predict "$input" -o "$tmp/out1" $fast --threads 1 2> "$tmp/err"
 check "predict, 1 thread" 0 $?
 for f in material.json params.json preview.png compare.png report.json; do
@@ -25,9 +25,10 @@ for f in material.json params.json preview.png compare.png report.json; do
 done
 ls -d "$tmp"/out1.* 2> /dev/null && { echo "FAIL: temporary folders left"; failures=$((failures + 1)); }
 
-"$imsynth" extract --params "$tmp/out1/params.json" -o "$tmp/sub.json"
+turn=$(py -c "import json,sys; print(json.load(open(sys.argv[1]))['texture_rotation'])" "$tmp/out1/report.json")
+"$imsynth" extract --params "$tmp/out1/params.json" --texture-rotation "$turn" -o "$tmp/sub.json"
 cmp -s "$tmp/sub.json" "$tmp/out1/material.json"
-check "material.json is the sub-shader of params.json" 0 $?
+check "material.json is the sub-shader of params.json, turned as report.json says" 0 $?
 
 py - "$tmp/out1/report.json" << 'PY'
 import json, sys
@@ -38,22 +39,29 @@ c = ref["curve"]
 assert len(c) == ref["evaluations"] == ref["budget"] == 6, ref
 assert all(b <= a for a, b in zip(c, c[1:])), c
 assert c[0] == ref["start_loss"] and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
-assert 1 <= len(r["candidates"]) <= 4 and r["final"]["material_nodes"] > 0
+assert 1 <= len(r["candidates"]) <= 8 and r["final"]["material_nodes"] > 0
 assert r["renders_by_stage"]["candidates"] == 2 * len(r["candidates"]) and r["renders"] >= 2
+# rotation auto: each turn's own candidates, 2 + 2 at most
+assert r["rotation_asked"] == "auto" and r["texture_rotation"] in (0, 90), r["texture_rotation"]
+for t in (0, 90):
+    n = sum(c["texture_rotation"] == t for c in r["candidates"])
+    assert 1 <= n <= 4, (t, n)
 PY
 check "report: the curve never rises" 0 $?
-# The default light is auto: every candidate scored in both scenes, the scene the one of
-# the least loss of all (candidate, scene) pairs; the start the candidate best there by
-# G + start_colour_weight C (ties: the earlier), refined in that scene.
+# The default light is auto: every candidate scored in both scenes, the scene (and the
+# rotation) the one of the least loss of all (candidate, scene) pairs; the start the
+# candidate of that rotation best there by G + start_colour_weight C (ties: the earlier),
+# refined in that scene.
 start_check='
 import json, sys
 r = json.load(open(sys.argv[1]))
 w = r["loss"]["start_colour_weight"]
 assert w == float(sys.argv[2]), w
 assert r["light_asked"] == "auto" and r["light"] in ("scene", "flash"), r["light"]
-cands = r["candidates"]
-pairs = [(x[s]["loss"], s) for x in cands for s in ("scene", "flash")]
-assert min(pairs)[1] == r["light"], pairs
+pairs = [(x[s]["loss"], s, x["texture_rotation"]) for x in r["candidates"] for s in ("scene", "flash")]
+assert min(pairs)[1:] == (r["light"], r["texture_rotation"]), pairs
+cands = [x for x in r["candidates"] if x["texture_rotation"] == r["texture_rotation"]]
+assert not [x for x in r["candidates"] if x["chosen"] and x not in cands]
 key = [x[r["light"]]["gram"] + w * x[r["light"]]["colour"] for x in cands]
 chosen = [j for j, x in enumerate(cands) if x["chosen"]]
 assert chosen == [key.index(min(key))], (chosen, key)
@@ -62,17 +70,19 @@ assert abs(cands[chosen[0]][r["light"]]["loss"] - r["refinement"]["start_loss"])
 py -c "$start_check" "$tmp/out1/report.json" 4
 check "report: the scene of the best loss, the start the best by G + 4 C there" 0 $?
 # On the marble the two rankings differ (G alone: the fourth candidate; G + 4 C: the
-# second), so the check tells a weight that is honoured from one that is not.
+# second; of the unturned candidates), so the check tells a weight that is honoured from
+# one that is not.
 marble="$root/tests/handmade/marble/render.exr"
-"$imsynth" predict "$marble" -o "$tmp/sw0" $fast --refine 1 --start-colour-weight 0
+"$imsynth" predict "$marble" -o "$tmp/sw0" $fast --refine 1 --start-colour-weight 0 --rotation 0
 check "predict --start-colour-weight 0" 0 $?
 py -c "$start_check" "$tmp/sw0/report.json" 0
 check "--start-colour-weight 0: the start the best by G alone" 0 $?
 py -c "
 import json, sys
 r = json.load(open(sys.argv[1])); s = r['light']
-l = [x[s]['gram'] + 4 * x[s]['colour'] for x in r['candidates']]
-assert not r['candidates'][l.index(min(l))]['chosen'], 'the rankings agree: no test'
+cands = [x for x in r['candidates'] if x['texture_rotation'] == r['texture_rotation']]
+l = [x[s]['gram'] + 4 * x[s]['colour'] for x in cands]
+assert not cands[l.index(min(l))]['chosen'], 'the rankings agree: no test'
 " "$tmp/sw0/report.json"
 check "--start-colour-weight 0 starts elsewhere than G + 4 C would on the marble" 0 $?
 "$imsynth" predict "$input" -o "$tmp/sw0" $fast --start-colour-weight -1 2> "$tmp/err"
@@ -92,6 +102,34 @@ assert chosen["scene"]["loss"] == r["refinement"]["start_loss"]
 assert r["renders_by_stage"]["candidates"] == len(r["candidates"])
 PY
 check "auto: both scenes scored, the least loss wins" 0 $?
+
+# --rotation 0 / 90: one way's candidates only; 90 turns the material (a Mapping node in
+# material.json, label "Texture Rotation"), 0 leaves it as the super-shader makes it
+for turn in 0 90; do
+    "$imsynth" predict "$input" -o "$tmp/turn$turn" $fast --refine 2 --light scene --rotation $turn
+    check "predict --rotation $turn" 0 $?
+done
+py - "$tmp/turn0" "$tmp/turn90" << 'PY'
+import json, sys
+for d, t in zip(sys.argv[1:3], (0, 90)):
+    r = json.load(open(d + "/report.json"))
+    assert r["rotation_asked"] == str(t) and r["texture_rotation"] == t, r["texture_rotation"]
+    assert all(c["texture_rotation"] == t for c in r["candidates"]), r["candidates"]
+    m = json.load(open(d + "/material.json"))
+    maps = [n for n in m["nodes"] if n["type"] == "ShaderNodeMapping"]
+    if t == 0:
+        assert not maps, maps
+    else:  # the brick wall's material reads coordinates: the turn is in it
+        assert len(maps) == 1 and maps[0]["label"] == "Texture Rotation", maps
+        assert abs(maps[0]["inputs"]["Rotation"][2] - 1.5707963) < 1e-6, maps[0]
+PY
+check "--rotation 0 / 90: one way's candidates, the turn in material.json" 0 $?
+"$imsynth" extract --params "$tmp/turn90/params.json" --texture-rotation 90 -o "$tmp/sub90.json"
+cmp -s "$tmp/sub90.json" "$tmp/turn90/material.json"
+check "--rotation 90: material.json is params.json's sub-shader turned 90" 0 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --rotation 45 2> "$tmp/err"
+check "bad --rotation" 2 $?
+expect_stderr "bad --rotation: says what is expected" '"45" is not 0, 90 or auto'
 
 # --refine-preset apart from --search-preset: the start is rendered again at it (the
 # cache key holds the preset), so the curve starts from its loss there, not the candidate's
@@ -141,8 +179,9 @@ check "bad --colour-phase" 2 $?
 # ones: the same first one as the beam's, and less probable others; report.json says so
 # (the default, T = 0.5) against the beam (--sample-hypotheses 0)
 "$imsynth" predict "$input" -o "$tmp/sb" $fast --light scene --nearest 0 --top-k 3 --refine 1 \
-    --sample-hypotheses 0 --nearest-metric pca &&
-    "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 --refine 1
+    --sample-hypotheses 0 --nearest-metric pca --rotation 0 &&
+    "$imsynth" predict "$input" -o "$tmp/ss" $fast --light scene --nearest 0 --top-k 3 --refine 1 \
+    --rotation 0
 check "predict --sample-hypotheses 0, and the default" 0 $?
 py - "$tmp/sb/report.json" "$tmp/ss/report.json" << 'PY'
 import json, sys
@@ -163,7 +202,9 @@ check "predict --starts 3" 0 $?
 py - "$tmp/st/report.json" << 'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-ref, cands = r["refinement"], r["candidates"]
+ref = r["refinement"]
+cands = [c for c in r["candidates"] if c["texture_rotation"] == r["texture_rotation"]]
+assert not [c for c in r["candidates"] if c["refined"] and c not in cands]
 k = min(3, len(cands))
 assert ref["starts"] == k and ref["evaluations"] == 9, ref
 raced = sorted(c["scene"]["loss"] for c in cands if c["refined"])
