@@ -41,9 +41,12 @@ static const char *const help =
     "  --light scene|flash|auto  where the input's light was: our point-light scene, a\n"
     "                         flash at the camera, or auto (default): both, the better kept\n"
     "  --rotation 0|90|auto   which way the input's pattern may run: as the super-shader\n"
-    "                         makes bricks, planks and bands (0, default: along X), turned\n"
-    "                         a quarter (90: along Y; the material gets a Mapping node), or\n"
-    "                         auto: both ways' candidates, the better kept\n"
+    "                         makes bricks, planks and bands (0: along X), turned a quarter\n"
+    "                         (90: along Y; the material gets a Mapping node), or auto\n"
+    "                         (default): both ways' candidates, the turned kept when clearly\n"
+    "                         better (--rotation-margin)\n"
+    "  --rotation-margin M    auto: the turned candidates win only when their least loss is\n"
+    "                         below M x the unturned ones' (default 0.85)\n"
     "  --top-k K              predictor hypotheses (default 8)\n"
     "  --sample-hypotheses T  the likeliest and K - 1 drawn from the selectors' distributions\n"
     "                         sharpened to p^(1/T) (default 0.5; 0: the K likeliest)\n"
@@ -155,6 +158,9 @@ int cmd_predict(int argc, char **argv)
                 return EXIT_USAGE;
             }
             o.rotation = (predict_rotation)k;
+        } else if (!strcmp(a, "--rotation-margin")) {
+            if (cli_parse_double(sub, a, val, 0.0, 10.0, &o.rotation_margin))
+                return EXIT_USAGE;
         } else if (!strcmp(a, "--sample-hypotheses")) {
             if (cli_parse_sample_hypotheses(sub, a, val, &o.sample_hypotheses))
                 return EXIT_USAGE;

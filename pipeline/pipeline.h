@@ -694,6 +694,8 @@ typedef struct predict_options {
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */
     predict_rotation rotation; /* the texture rotations tried (0, 90, or both: auto) */
+    double rotation_margin;   /* auto: the turned candidates win only when their least loss
+                               * is below margin x the unturned ones' (1: the least wins) */
     int threads;              /* render threads (0 = online CPUs); never changes a byte */
     sg_blender_mode blender;
     uint64_t seed;            /* render noise (one seed for the whole run) */
@@ -708,7 +710,7 @@ typedef struct predict_options {
 
 /* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement
  * coordinate-sweep with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
- * light auto, rotation 0, colour_weight 4, blender 4, seed 1. */
+ * light auto, rotation auto with margin 0.85, colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);

@@ -17,7 +17,7 @@ check "a draft dataset" 0 $?
 check "a small model" 0 $?
 
 input="$root/tests/handmade/brick_wall/render.exr"
-fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet --rotation auto"
+fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet"
 "$imsynth" predict "$input" -o "$tmp/out1" $fast --threads 1 2> "$tmp/err"
 check "predict, 1 thread" 0 $?
 for f in material.json params.json preview.png compare.png report.json; do
@@ -41,17 +41,19 @@ assert all(b <= a for a, b in zip(c, c[1:])), c
 assert c[0] == ref["start_loss"] and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
 assert 1 <= len(r["candidates"]) <= 8 and r["final"]["material_nodes"] > 0
 assert r["renders_by_stage"]["candidates"] == 2 * len(r["candidates"]) and r["renders"] >= 2
-# rotation auto: each turn's own candidates, 2 + 2 at most
+# rotation auto (the default, margin 0.85): each turn's own candidates, 2 + 2 at most
 assert r["rotation_asked"] == "auto" and r["texture_rotation"] in (0, 90), r["texture_rotation"]
+assert r["rotation_margin"] == 0.85, r["rotation_margin"]
 for t in (0, 90):
     n = sum(c["texture_rotation"] == t for c in r["candidates"])
     assert 1 <= n <= 4, (t, n)
 PY
 check "report: the curve never rises" 0 $?
-# The default light is auto: every candidate scored in both scenes, the scene (and the
-# rotation) the one of the least loss of all (candidate, scene) pairs; the start the
-# candidate of that rotation best there by G + start_colour_weight C (ties: the earlier),
-# refined in that scene.
+# The default light is auto: every candidate scored in both scenes, the scene the one of
+# the least loss of all (candidate, scene) pairs of the rotation (the turned one when its
+# least loss is below rotation_margin x the unturned one's); the start the candidate of
+# that rotation best there by G + start_colour_weight C (ties: the earlier), refined in
+# that scene.
 start_check='
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -59,7 +61,9 @@ w = r["loss"]["start_colour_weight"]
 assert w == float(sys.argv[2]), w
 assert r["light_asked"] == "auto" and r["light"] in ("scene", "flash"), r["light"]
 pairs = [(x[s]["loss"], s, x["texture_rotation"]) for x in r["candidates"] for s in ("scene", "flash")]
-assert min(pairs)[1:] == (r["light"], r["texture_rotation"]), pairs
+least = {t: min(p for p in pairs if p[2] == t) for t in {p[2] for p in pairs}}
+turn = 90 if 90 in least and (0 not in least or least[90][0] < r["rotation_margin"] * least[0][0]) else 0
+assert least[turn][1:] == (r["light"], r["texture_rotation"]), (least, r["rotation_margin"])
 cands = [x for x in r["candidates"] if x["texture_rotation"] == r["texture_rotation"]]
 assert not [x for x in r["candidates"] if x["chosen"] and x not in cands]
 key = [x[r["light"]]["gram"] + w * x[r["light"]]["colour"] for x in cands]
@@ -97,11 +101,12 @@ r = json.load(open(sys.argv[1]))
 assert r["light_asked"] == "scene" and r["light"] == "scene", r["light"]
 assert all("flash" not in c for c in r["candidates"]), r["candidates"]
 chosen = [c for c in r["candidates"] if c["chosen"]][0]
-assert min(c["scene"]["loss"] for c in r["candidates"]) == chosen["scene"]["loss"]
+own = [c for c in r["candidates"] if c["texture_rotation"] == chosen["texture_rotation"]]
+assert min(c["scene"]["loss"] for c in own) == chosen["scene"]["loss"]
 assert chosen["scene"]["loss"] == r["refinement"]["start_loss"]
 assert r["renders_by_stage"]["candidates"] == len(r["candidates"])
 PY
-check "auto: both scenes scored, the least loss wins" 0 $?
+check "--light scene: one scene scored, the least loss (of the rotation kept) wins" 0 $?
 
 # --rotation 0 / 90: one way's candidates only; 90 turns the material (a Mapping node in
 # material.json, label "Texture Rotation"), 0 leaves it as the super-shader makes it
@@ -127,6 +132,27 @@ check "--rotation 0 / 90: one way's candidates, the turn in material.json" 0 $?
 "$imsynth" extract --params "$tmp/turn90/params.json" --texture-rotation 90 -o "$tmp/sub90.json"
 cmp -s "$tmp/sub90.json" "$tmp/turn90/material.json"
 check "--rotation 90: material.json is params.json's sub-shader turned 90" 0 $?
+# --rotation-margin M: with auto, the turned candidates win only below M x the unturned
+# ones' least loss: 0 never, 10 always (on this input); both sets are scored either way
+for m in 0 10; do
+    "$imsynth" predict "$input" -o "$tmp/margin$m" $fast --refine 1 --light scene --rotation-margin $m
+    check "predict --rotation-margin $m" 0 $?
+done
+py - "$tmp/margin0/report.json" "$tmp/margin10/report.json" << 'PY'
+import json, sys
+for f, m, t in zip(sys.argv[1:3], (0, 10), (0, 90)):
+    r = json.load(open(f))
+    assert r["rotation_margin"] == m and r["texture_rotation"] == t, (m, r["texture_rotation"])
+    cands = r["candidates"]
+    assert {c["texture_rotation"] for c in cands} == {0, 90}, cands
+    own = [c["scene"]["loss"] for c in cands if c["texture_rotation"] == t]
+    chosen = [c for c in cands if c["chosen"]]
+    assert len(chosen) == 1 and chosen[0]["texture_rotation"] == t, chosen
+    assert chosen[0]["scene"]["loss"] == min(own) == r["refinement"]["start_loss"], (chosen, own)
+PY
+check "--rotation-margin: 0 keeps the unturned, 10 takes the turned" 0 $?
+"$imsynth" predict "$input" -o "$tmp/rq" $fast --rotation-margin -1 2> "$tmp/err"
+check "bad --rotation-margin" 2 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --rotation 45 2> "$tmp/err"
 check "bad --rotation" 2 $?
 expect_stderr "bad --rotation: says what is expected" '"45" is not 0, 90 or auto'
