@@ -710,7 +710,7 @@ typedef struct predict_options {
 
 /* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement
  * coordinate-sweep with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
- * light auto, rotation auto with margin 0.85, colour_weight 4, blender 4, seed 1. */
+ * light auto, rotation auto (margin 1), colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
 int predict_run(const predict_options *o, char *err, size_t errlen);

@@ -41,9 +41,9 @@ assert all(b <= a for a, b in zip(c, c[1:])), c
 assert c[0] == ref["start_loss"] and c[-1] == ref["best_loss"] <= ref["start_loss"], ref
 assert 1 <= len(r["candidates"]) <= 8 and r["final"]["material_nodes"] > 0
 assert r["renders_by_stage"]["candidates"] == 2 * len(r["candidates"]) and r["renders"] >= 2
-# rotation auto (the default, margin 0.85): each turn's own candidates, 2 + 2 at most
+# rotation auto (the default, margin 1): each turn's own candidates, 2 + 2 at most
 assert r["rotation_asked"] == "auto" and r["texture_rotation"] in (0, 90), r["texture_rotation"]
-assert r["rotation_margin"] == 0.85, r["rotation_margin"]
+assert r["rotation_margin"] == 1, r["rotation_margin"]
 for t in (0, 90):
     n = sum(c["texture_rotation"] == t for c in r["candidates"])
     assert 1 <= n <= 4, (t, n)
