@@ -10,6 +10,10 @@ B / A, and the inputs where the two settings' winners differ in rotation or ligh
 
 --group splits the counts by input-name prefix (e.g. hm- photo- rot-).
 
+--sheet OUT.png: for every input where B's winner differs from A's in rotation or light, a
+row of the input, A's preview and B's preview (from compare.png and preview.png; 128 px
+tiles), labelled with the winner's rotation and the final losses.
+
 --margin M (A run with --rotation 0, B with --rotation auto and margin 1): B stands for
 `--rotation auto --rotation-margin M`, its output taken where its winner is turned and the
 turned candidates' least loss is below M x the unturned ones', else A's. Exact, not an
@@ -62,6 +66,26 @@ def vgg_distances(imsynth, pairs):
     return res
 
 
+def write_sheet(path, a_dir, rows):
+    from PIL import Image, ImageDraw
+    tile, head = 128, 14
+    img = Image.new("RGB", (3 * tile, len(rows) * (tile + head)), (0, 0, 0))
+    d = ImageDraw.Draw(img)
+    for i, r in enumerate(rows):
+        y = i * (tile + head)
+        # the input as predict saw it: compare.png's first tile
+        small = lambda im: im.convert("RGB").resize((tile, tile), Image.LANCZOS)
+        img.paste(small(Image.open(os.path.join(a_dir, r["name"], "compare.png")).crop((0, 20, 256, 276))),
+                  (0, y + head))
+        img.paste(small(Image.open(os.path.join(a_dir, r["name"], "preview.png"))), (tile, y + head))
+        img.paste(small(Image.open(os.path.join(r["b_dir"], r["name"], "preview.png"))), (2 * tile, y + head))
+        a, b = r["a"], r["b"]
+        d.text((2, y + 1), r["name"][:21], fill=(255, 255, 255))
+        d.text((tile + 2, y + 1), f"A {a.get('texture_rotation', 0):g}: loss {a['final']['loss']:.3f}", fill=(255, 255, 255))
+        d.text((2 * tile + 2, y + 1), f"B {b.get('texture_rotation', 0):g}: loss {b['final']['loss']:.3f}", fill=(255, 255, 255))
+    img.save(path)
+
+
 def main():
     args = sys.argv[1:]
     groups, json_out = [], None
@@ -70,6 +94,11 @@ def main():
         groups.append(args[i + 1])
         del args[i:i + 2]
     margin = None
+    sheet = None
+    if "--sheet" in args:
+        i = args.index("--sheet")
+        sheet = args[i + 1]
+        del args[i:i + 2]
     if "--margin" in args:
         i = args.index("--margin")
         margin = float(args[i + 1])
@@ -137,6 +166,9 @@ def main():
             o = out[key]
             print(f"  {key:6} B closer {o['b_closer']:2}, farther {o['b_farther']:2} (sign p {o['sign_p']:.3f}); "
                   f"medians {o['median_a']:.4f} -> {o['median_b']:.4f}, median B/A {o['median_ratio']:.3f}")
+    if sheet:
+        write_sheet(sheet, a_dir, [r for r in rows if r["a"].get("texture_rotation", 0) != r["b"].get("texture_rotation", 0)
+                                   or r["a"]["light"] != r["b"]["light"]])
     if json_out:
         with open(json_out, "w") as f:
             json.dump({"rows": [{k: v for k, v in r.items() if k not in ("a", "b", "b_dir")} |
