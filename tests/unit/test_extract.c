@@ -15,6 +15,7 @@
 #include <cmocka.h>
 
 #include "shadergraph/shadergraph.h"
+#include "test_assets.h"
 
 static const sg_socket_ref maps[4] = {{"Principled BSDF", "Base Color"},
                                       {"Principled BSDF", "Metallic"},
@@ -85,17 +86,6 @@ static int check_extraction(const sg_graph *g)
         sg_graph_free(x);
     }
     return count;
-}
-
-static sg_graph *load_asset(const char *rel)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", IMSYNTH_SOURCE_DIR, rel);
-    char err[SG_ERROR_MAX] = "";
-    sg_graph *g = sg_graph_load_file(path, err, sizeof err);
-    if (!g)
-        fail_msg("%s", err);
-    return g;
 }
 
 static void test_marble_unchanged(void **state)

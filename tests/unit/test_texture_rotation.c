@@ -17,19 +17,9 @@
 
 #include "imageio/imageio.h"
 #include "shadergraph/shadergraph.h"
+#include "test_assets.h"
 
 enum { RES = 64 };
-
-static sg_graph *load_asset(const char *rel)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", IMSYNTH_SOURCE_DIR, rel);
-    char err[SG_ERROR_MAX] = "";
-    sg_graph *g = sg_graph_load_file(path, err, sizeof err);
-    if (!g)
-        fail_msg("%s", err);
-    return g;
-}
 
 static void test_rotate_ccw_moves_pixels(void **state)
 {
