@@ -661,13 +661,10 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         n_keep += got_kept;
         n_cands += got;
     }
-    sc.graph = sc.graphs[first_turn];
 
-    /* Score each distinct candidate in each scene tried, in its own rotation; the best
-     * (candidate, scene) wins. */
-    int best_k = -1, best_scene = 0;
-    double best_loss = INFINITY;
-    /* the same per rotation, for the margin below */
+    /* Score each distinct candidate in each scene tried, in its own rotation; per rotation
+     * the best (candidate, scene) pair (ties: the earlier). */
+    double best_loss = INFINITY; /* over both rotations: the progress line's */
     int turn_k[2] = {-1, -1}, turn_scene[2] = {0, 0};
     double turn_loss[2] = {INFINITY, INFINITY};
     for (int j = 0; j < n_keep; j++) {
@@ -681,11 +678,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
             if (score(&sc, cand_params + (size_t)keep[j] * np, &c->g[s], &c->c[s], err, errlen))
                 goto done;
             c->loss[s] = combine(&sc, c->g[s], c->c[s]);
-            if (c->loss[s] < best_loss) {
-                best_loss = c->loss[s];
-                best_k = keep[j];
-                best_scene = s;
-            }
+            best_loss = fmin(best_loss, c->loss[s]);
             if (c->loss[s] < turn_loss[c->turn]) {
                 turn_loss[c->turn] = c->loss[s];
                 turn_k[c->turn] = keep[j];
@@ -694,6 +687,12 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
         }
         progress(o, "candidates", j + 1, n_keep, best_loss);
     }
+    /* The turned rotation wins when it is the only one tried, or when its least loss is
+     * below the margin (default 1: the least loss wins) times the unturned one's. On an
+     * input with no direction the two sets are alike and the turned one is only 16 more
+     * draws, whose least loss is lower by chance (docs/predict.md). */
+    int best_turn = turn_k[1] >= 0 && (turn_k[0] < 0 || turn_loss[1] < o->rotation_margin * turn_loss[0]);
+    int best_k = turn_k[best_turn], best_scene = turn_scene[best_turn];
     if (best_k < 0) {
         pipeline_error(err, errlen, "%s: no candidate could be scored (every loss NaN)",
                        o->image_path);
@@ -706,15 +705,6 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
 
     /* Refine the winner in its scene and rotation, or race the --starts best there
      * (refine_race). */
-    /* With both rotations, the turned ones must win by the margin (default 1: the least
-     * loss wins). On an input with no direction the two sets are alike and the turned one
-     * is only 16 more draws, whose least loss is lower by chance (docs/predict.md). */
-    if (o->rotation == PREDICT_ROTATION_AUTO && turn_k[0] >= 0 && turn_k[1] >= 0 &&
-        !(turn_loss[1] < o->rotation_margin * turn_loss[0])) {
-        best_k = turn_k[0];
-        best_scene = turn_scene[0];
-    }
-    int best_turn = cands[best_k].turn;
     sc.graph = sc.graphs[best_turn];
     int n_starts = 0;
     order = malloc((size_t)n_keep * sizeof *order);
