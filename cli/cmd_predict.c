@@ -93,6 +93,16 @@ static void progress(void *ctx, const char *stage, int done, int todo, double be
     fflush(stderr);
 }
 
+/* Which of an option's three names (predict_light_names, predict_rotation_names) s is,
+ * or -1. */
+static int name_index(const char *const names[3], const char *s)
+{
+    for (int j = 0; j < 3; j++)
+        if (!strcmp(s, names[j]))
+            return j;
+    return -1;
+}
+
 int cmd_predict(int argc, char **argv)
 {
     const char *sub = "predict";
@@ -139,20 +149,14 @@ int cmd_predict(int argc, char **argv)
         else if (!strcmp(a, "--graph"))
             o.graph_path = val;
         else if (!strcmp(a, "--light")) {
-            int k = -1;
-            for (int j = 0; j < 3; j++)
-                if (!strcmp(val, predict_light_names[j]))
-                    k = j;
+            int k = name_index(predict_light_names, val);
             if (k < 0) {
                 cli_error(sub, "--light: \"%s\" is not scene, flash or auto", val);
                 return EXIT_USAGE;
             }
             o.light = (predict_light)k;
         } else if (!strcmp(a, "--rotation")) {
-            int k = -1;
-            for (int j = 0; j < 3; j++)
-                if (!strcmp(val, predict_rotation_names[j]))
-                    k = j;
+            int k = name_index(predict_rotation_names, val);
             if (k < 0) {
                 cli_error(sub, "--rotation: \"%s\" is not 0, 90 or auto", val);
                 return EXIT_USAGE;
