@@ -215,11 +215,9 @@ static sg_graph *extract_frame(sg_graph *g, sg_params *params, unsigned seed)
 static void test_supershader_100_seeds(void **state)
 {
     (void)state;
-    sg_graph *g = load_asset("assets/supershader.json");
     sg_params params;
+    sg_graph *g = load_supershader(&params);
     char err[SG_ERROR_MAX] = "";
-    if (sg_params_from_graph(g, &params, err, sizeof err) < 0)
-        fail_msg("%s", err);
     enum { B = 256, BATCHES = 16 }; /* 4,096 points */
     static float storage[48 * B], a[4][3 * B], b[4][3 * B];
     float *pa[4] = {a[0], a[1], a[2], a[3]}, *pb[4] = {b[0], b[1], b[2], b[3]};
@@ -300,11 +298,9 @@ static char *sorted_lines(const char *text)
 static void test_same_subshader_same_text(void **state)
 {
     (void)state;
-    sg_graph *g = load_asset("assets/supershader.json");
     sg_params params;
+    sg_graph *g = load_supershader(&params);
     char err[SG_ERROR_MAX] = "";
-    if (sg_params_from_graph(g, &params, err, sizeof err) < 0)
-        fail_msg("%s", err);
     unsigned seeds = getenv("IMSYNTH_TEST_QUICK") ? 8 : 40;
     int same_graph = 0;
     for (unsigned seed = 0; seed < seeds; seed++) {

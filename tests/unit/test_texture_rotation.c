@@ -107,11 +107,9 @@ static double agreement(const image *a, const image *b)
 static void test_supershader_turned_is_image_turned(void **state)
 {
     (void)state;
-    sg_graph *g = load_asset("assets/supershader.json");
     sg_params params;
+    sg_graph *g = load_supershader(&params);
     char err[SG_ERROR_MAX] = "";
-    if (sg_params_from_graph(g, &params, err, sizeof err) < 0)
-        fail_msg("%s", err);
     int patterned = 0, told_apart = 0;
     for (unsigned seed = 0; seed < 24; seed++) {
         sg_params_sample(&params, seed);
