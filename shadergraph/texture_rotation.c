@@ -110,10 +110,11 @@ static int rotate_tree(cJSON *tree, double radians, const char *where, char *err
                 at[0] = (float)cJSON_GetArrayItem(loc, 0)->valuedouble + 200.0f;
                 at[1] = (float)cJSON_GetArrayItem(loc, 1)->valuedouble - 200.0f;
             }
-            cJSON *in = cJSON_CreateObject();
-            if (!add_mapping(nodes, name, at, radians) || !in ||
-                (cJSON_AddItemToArray(links, in), 0) ||
-                !cJSON_AddStringToObject(in, "from_node", from) ||
+            cJSON *in = add_mapping(nodes, name, at, radians) ? cJSON_CreateObject() : NULL;
+            if (!in)
+                return sg_error_set(err, errlen, "%s: out of memory", where);
+            cJSON_AddItemToArray(links, in); /* owned by the tree from here */
+            if (!cJSON_AddStringToObject(in, "from_node", from) ||
                 !cJSON_AddStringToObject(in, "from_socket", socket) ||
                 !cJSON_AddStringToObject(in, "to_node", name) ||
                 !cJSON_AddStringToObject(in, "to_socket", "Vector"))
