@@ -88,6 +88,8 @@ int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
 int cli_parse_sample_hypotheses(const char *sub, const char *opt, const char *s, double *out);
 /* --nearest-metric pca|whitened: *out the predictor_metric (predictor_nearest_metric);
  * -1 after printing the usage error. */
+/* The index of s in names[0..n), or -1. */
+int cli_name_index(const char *s, const char *const *names, int n);
 int cli_parse_nearest_metric(const char *sub, const char *opt, const char *s, int *out);
 /* True if argv has -h or --help before any "--". */
 int cli_wants_help(int argc, char **argv);

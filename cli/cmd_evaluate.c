@@ -71,6 +71,7 @@ static const char *const help =
     "                        random\n"
     "  --preset NAME         how candidates are rendered: draft, datagen (default), converged\n"
     "  --colour-weight W     the -refine rows' loss G + W C (default 4, predict's)\n"
+    "  --colour-term T       C: blocks or sorted (default sorted, predict's)\n"
     "  --colour-phase N      their first N renders weigh C --colour-phase-weight\n"
     "                        (default 12) instead (default N 0, predict's)\n"
     "  --start-colour-weight W  a -refine row starts from its -topk method's candidate\n"

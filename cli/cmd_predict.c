@@ -22,7 +22,8 @@ static const char *const help =
     "     --refine N renders at the refine preset (N = 1: no refinement);\n"
     "  4. the result is rendered at the final preset and its sub-shader extracted.\n"
     "The loss is G + w C: G the Gram distance of the model's descriptor, C the mean\n"
-    "difference of 32x32 box averages of the colours, w = --colour-weight.\n"
+    "difference of the sorted 32x32 box averages of the colours (their distributions,\n"
+    "not where they are), w = --colour-weight.\n"
     "\n"
     "OUTDIR (written whole or not at all; an earlier predict output there is replaced):\n"
     "  material.json  the material, for Blender:\n"
@@ -63,6 +64,9 @@ static const char *const help =
     "                         time of 64 at datagen; docs/predict.md)\n"
     "  --final-preset NAME    the preview's (default converged)\n"
     "  --colour-weight W      weight of the colour term (default 4)\n"
+    "  --colour-term T        sorted: the box averages compared as distributions, blind\n"
+    "                         to where they are (default); blocks: box by box, where they\n"
+    "                         are (the default before session 29; docs/predict.md)\n"
     "  --colour-phase N       the refinement's first N renders weigh it\n"
     "                         --colour-phase-weight (default 12) instead (default N 0)\n"
     "  --start-colour-weight W  the candidates' ranking as starts: G + W C in the chosen\n"
@@ -91,16 +95,6 @@ static void progress(void *ctx, const char *stage, int done, int todo, double be
         fprintf(stderr, "predict: %s %d/%d, best loss %.4f\n", stage, done, todo, best);
     }
     fflush(stderr);
-}
-
-/* Which of an option's three names (predict_light_names, predict_rotation_names) s is,
- * or -1. */
-static int name_index(const char *const names[3], const char *s)
-{
-    for (int j = 0; j < 3; j++)
-        if (!strcmp(s, names[j]))
-            return j;
-    return -1;
 }
 
 int cmd_predict(int argc, char **argv)
@@ -149,14 +143,14 @@ int cmd_predict(int argc, char **argv)
         else if (!strcmp(a, "--graph"))
             o.graph_path = val;
         else if (!strcmp(a, "--light")) {
-            int k = name_index(predict_light_names, val);
+            int k = cli_name_index(val, predict_light_names, 3);
             if (k < 0) {
                 cli_error(sub, "--light: \"%s\" is not scene, flash or auto", val);
                 return EXIT_USAGE;
             }
             o.light = (predict_light)k;
         } else if (!strcmp(a, "--rotation")) {
-            int k = name_index(predict_rotation_names, val);
+            int k = cli_name_index(val, predict_rotation_names, 3);
             if (k < 0) {
                 cli_error(sub, "--rotation: \"%s\" is not 0, 90 or auto", val);
                 return EXIT_USAGE;

@@ -87,6 +87,13 @@ int cli_parse_refine_option(const char *sub, const char *opt, const char *val,
         if (cli_parse_double(sub, opt, val, 0.0, 1e6, &d))
             return -1;
         ro->colour_weight = d;
+    } else if (!strcmp(opt, "--colour-term")) {
+        int t = cli_name_index(val, pipeline_colour_term_names, PIPELINE_N_COLOUR_TERMS);
+        if (t < 0) {
+            cli_error(sub, "%s: expected blocks or sorted, got \"%s\"", opt, val);
+            return -1;
+        }
+        ro->colour_term = (pipeline_colour_term)t;
     } else if (!strcmp(opt, "--colour-phase")) {
         if (cli_parse_ll(sub, opt, val, 0, 100000, &n))
             return -1;
@@ -135,13 +142,21 @@ int cli_parse_sample_hypotheses(const char *sub, const char *opt, const char *s,
     return 0;
 }
 
+int cli_name_index(const char *s, const char *const *names, int n)
+{
+    for (int j = 0; j < n; j++)
+        if (!strcmp(s, names[j]))
+            return j;
+    return -1;
+}
+
 int cli_parse_nearest_metric(const char *sub, const char *opt, const char *s, int *out)
 {
-    for (int m = 0; m < 2; m++)
-        if (!strcmp(s, predictor_metric_names[m])) {
-            *out = m;
-            return 0;
-        }
+    int m = cli_name_index(s, predictor_metric_names, 2);
+    if (m >= 0) {
+        *out = m;
+        return 0;
+    }
     cli_error(sub, "%s: expected pca or whitened, got \"%s\"", opt, s);
     return -1;
 }

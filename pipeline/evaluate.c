@@ -382,7 +382,8 @@ static int refine_loss_cb(void *ctx, const float *params, double *g, double *c, 
     if (rc == 0)
         rc = describe(w, k, &img, &desc, err, errlen);
     if (rc == 0)
-        rc = evaluate_colour_distance(&img, &iw->in->img, c, err, errlen);
+        rc = evaluate_colour_term(w->sh->o->refine.colour_term, &img, &iw->in->img, c, err,
+                                  errlen);
     if (rc == 0)
         *g = evaluate_gram_distance(iw->in_desc[k], desc, w->offsets[k], w->n_layers[k]);
     free(desc);
@@ -516,7 +517,8 @@ static int evaluate_input(worker *w, const input *in, result *r)
             candidate *c = candidate_get(&iw, buf + (size_t)j * np, err, errlen);
             double colour = NAN;
             if (!c || describe(w, sh->train, &c->img, &c->desc[sh->train], err, errlen) ||
-                evaluate_colour_distance(&c->img, &in->img, &colour, err, errlen)) {
+                evaluate_colour_term(o->refine.colour_term, &c->img, &in->img, &colour, err,
+                                     errlen)) {
                 rc = -1;
                 break;
             }
@@ -1102,6 +1104,7 @@ static cJSON *report_json(const report_ctx *c)
     cJSON_AddStringToObject(cmd, "refine_method", refine_method_names[o->refine.method]);
     cJSON_AddNumberToObject(cmd, "refine_budget", o->refine.budget);
     cJSON_AddNumberToObject(cmd, "colour_weight", o->refine.colour_weight);
+    cJSON_AddStringToObject(cmd, "colour_term", pipeline_colour_term_names[o->refine.colour_term]);
     cJSON_AddNumberToObject(cmd, "start_colour_weight", o->refine.start_colour_weight);
     cJSON_AddNumberToObject(cmd, "colour_phase", o->refine.colour_phase);
     cJSON_AddNumberToObject(cmd, "colour_phase_weight", o->refine.colour_phase_weight);

@@ -11,7 +11,8 @@
  * (common random numbers: two candidates differ by their materials, not their noise):
  *     loss = G + colour_weight x C
  * G the Gram distance of the training descriptor (evaluate_gram_distance, in [0, 1]), C the
- * colour term (evaluate_colour_distance: L1 of 32 x 32 box averages, in [0, 1]). Parameter
+ * colour term (evaluate_colour_term, refine.colour_term: L1 of 32 x 32 box averages box by
+ * box, or sorted, blind to where they are; in [0, 1]). Parameter
  * sets whose sub-shaders are equal render alike, so the loss is cached by the sub-shader's
  * hash: a move of an inactive parameter costs an extraction (milliseconds), not a render.
  *
@@ -151,7 +152,7 @@ static int image_distances(scorer *sc, const image *img, double *g, double *c, c
     if (rc)
         return -1;
     *g = evaluate_gram_distance(sc->desc_buf, sc->target_desc, sc->offsets, sc->n_layers);
-    return evaluate_colour_distance(img, sc->target, c, err, errlen);
+    return evaluate_colour_term(sc->o->refine.colour_term, img, sc->target, c, err, errlen);
 }
 
 /* The distances of a parameter set in the current scene, from the cache or rendered. */
@@ -827,8 +828,14 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(report, "texture_rotation", best_turn ? QUARTER_TURN_DEGREES : 0.0);
     cJSON *lossj = cJSON_AddObjectToObject(report, "loss");
     cJSON_AddStringToObject(lossj, "definition",
-                            "G + colour_weight * C; G: Gram distance of the model's descriptor; "
-                            "C: L1 of 32x32 box averages (docs/predict.md)");
+                            o->refine.colour_term == PIPELINE_COLOUR_SORTED
+                                ? "G + colour_weight * C; G: Gram distance of the model's "
+                                  "descriptor; C: L1 of the sorted 32x32 box averages, per "
+                                  "channel (docs/predict.md)"
+                                : "G + colour_weight * C; G: Gram distance of the model's "
+                                  "descriptor; C: L1 of 32x32 box averages (docs/predict.md)");
+    cJSON_AddStringToObject(lossj, "colour_term",
+                            pipeline_colour_term_names[o->refine.colour_term]);
     cJSON_AddStringToObject(lossj, "descriptor",
                             predictor_descriptor_kind(pred) == DATAGEN_DESC_VGG19_F16 ? "vgg19"
                                                                                         : "mobilenetv2");

@@ -109,6 +109,7 @@ void refine_options_default(refine_options *o)
     o->min_step = 1.0 / 128;
     o->seed = 1;
     o->colour_weight = PIPELINE_COLOUR_WEIGHT;
+    o->colour_term = PIPELINE_COLOUR_TERM;
     o->colour_phase = 0;
     o->colour_phase_weight = PIPELINE_COLOUR_PHASE_WEIGHT;
     o->starts = 1;

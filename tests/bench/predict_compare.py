@@ -14,6 +14,16 @@ B / A, and the inputs where the two settings' winners differ in rotation or ligh
 row of the input, A's preview and B's preview (from compare.png and preview.png; 128 px
 tiles), labelled with the winner's rotation and the final losses.
 
+--sheet-rows differ: the sheet's rows are every input whose two previews differ (not
+only where the winner's rotation or light does), labelled with G, not the loss.
+
+Colour, beside the descriptors: between the input as predict saw it (compare.png's first
+tile) and preview.png, both 8-bit sRGB decoded to linear, the two colour terms of
+`--colour-term` (blocks: mean |a - b| of the 32 x 32 box averages of the centre 224 crop;
+sorted: the same with each channel's box averages sorted first). When A and B ran with
+different colour terms their final losses are not comparable; G, VGG19 and both colour
+columns are.
+
 --margin M (A run with --rotation 0, B with --rotation auto and margin 1): B stands for
 `--rotation auto --rotation-margin M`, its output taken where its winner is turned and the
 turned candidates' least loss is below M x the unturned ones', else A's. Exact, not an
@@ -66,7 +76,26 @@ def vgg_distances(imsynth, pairs):
     return res
 
 
-def write_sheet(path, a_dir, rows):
+def load_linear(path, box=None):
+    from PIL import Image
+    im = Image.open(path).convert("RGB")
+    if box:
+        im = im.crop(box)
+    assert im.size == (256, 256), (path, im.size)
+    a = np.asarray(im).astype(np.float64) / 255.0
+    return np.where(a <= 0.04045, a / 12.92, ((a + 0.055) / 1.055) ** 2.4)
+
+
+def colour_terms(a_dir, name, out_dir):
+    """(blocks, sorted) colour distances of out_dir/name/preview.png to the input tile."""
+    def boxes(a):
+        return a[16:240, 16:240].clip(0, 1).reshape(32, 7, 32, 7, 3).mean(axis=(1, 3)).reshape(-1, 3)
+    x = boxes(load_linear(os.path.join(a_dir, name, "compare.png"), (0, 20, 256, 276)))
+    y = boxes(load_linear(os.path.join(out_dir, name, "preview.png")))
+    return float(np.abs(x - y).mean()), float(np.abs(np.sort(x, 0) - np.sort(y, 0)).mean())
+
+
+def write_sheet(path, a_dir, rows, label_g=False):
     from PIL import Image, ImageDraw
     tile, head = 128, 14
     img = Image.new("RGB", (3 * tile, len(rows) * (tile + head)), (0, 0, 0))
@@ -81,8 +110,9 @@ def write_sheet(path, a_dir, rows):
         img.paste(small(Image.open(os.path.join(r["b_dir"], r["name"], "preview.png"))), (2 * tile, y + head))
         a, b = r["a"], r["b"]
         d.text((2, y + 1), r["name"][:21], fill=(255, 255, 255))
-        d.text((tile + 2, y + 1), f"A {a.get('texture_rotation', 0):g}: loss {a['final']['loss']:.3f}", fill=(255, 255, 255))
-        d.text((2 * tile + 2, y + 1), f"B {b.get('texture_rotation', 0):g}: loss {b['final']['loss']:.3f}", fill=(255, 255, 255))
+        key, what = ("gram", "G") if label_g else ("loss", "loss")
+        d.text((tile + 2, y + 1), f"A {a.get('texture_rotation', 0):g}: {what} {a['final'][key]:.3f}", fill=(255, 255, 255))
+        d.text((2 * tile + 2, y + 1), f"B {b.get('texture_rotation', 0):g}: {what} {b['final'][key]:.3f}", fill=(255, 255, 255))
     img.save(path)
 
 
@@ -98,6 +128,12 @@ def main():
     if "--sheet" in args:
         i = args.index("--sheet")
         sheet = args[i + 1]
+        del args[i:i + 2]
+    sheet_rows = "winner"
+    if "--sheet-rows" in args:
+        i = args.index("--sheet-rows")
+        sheet_rows = args[i + 1]
+        assert sheet_rows in ("winner", "differ"), sheet_rows
         del args[i:i + 2]
     if "--margin" in args:
         i = args.index("--margin")
@@ -134,14 +170,22 @@ def main():
     vgg = vgg_distances(imsynth, pairs)
     for i, r in enumerate(rows):
         r["vgg_a"], r["vgg_b"] = vgg[2 * i], vgg[2 * i + 1]
+        r["blocks_a"], r["sorted_a"] = colour_terms(a_dir, r["name"], a_dir)
+        r["blocks_b"], r["sorted_b"] = colour_terms(a_dir, r["name"], r["b_dir"])
+        with open(os.path.join(a_dir, r["name"], "preview.png"), "rb") as fa, \
+                open(os.path.join(r["b_dir"], r["name"], "preview.png"), "rb") as fb:
+            r["same_preview"] = fa.read() == fb.read()
     print(f"{len(rows)} inputs; A = {a_dir}, B = {b_dir}")
-    print(f"{'input':34} {'loss A':>7} {'loss B':>7} {'G A':>6} {'G B':>6} {'VGG A':>6} {'VGG B':>6}  winner A / B")
+    print(f"{'input':34} {'loss A':>7} {'loss B':>7} {'G A':>6} {'G B':>6} {'VGG A':>6} {'VGG B':>6} "
+          f"{'blk A':>6} {'blk B':>6} {'srt A':>6} {'srt B':>6}  winner A / B")
     for r in rows:
         a, b = r["a"], r["b"]
         wa = f"{a.get('texture_rotation', 0):g}/{a['light']}"
         wb = f"{b.get('texture_rotation', 0):g}/{b['light']}"
         print(f"{r['name']:34} {a['final']['loss']:7.4f} {b['final']['loss']:7.4f} "
-              f"{a['final']['gram']:6.4f} {b['final']['gram']:6.4f} {r['vgg_a']:6.4f} {r['vgg_b']:6.4f}  {wa} {wb}")
+              f"{a['final']['gram']:6.4f} {b['final']['gram']:6.4f} {r['vgg_a']:6.4f} {r['vgg_b']:6.4f} "
+              f"{r['blocks_a']:6.4f} {r['blocks_b']:6.4f} {r['sorted_a']:6.4f} {r['sorted_b']:6.4f}  {wa} {wb}"
+              + ("" if not r["same_preview"] else "  (same preview)"))
     summary = {}
     for g in [""] + groups:
         sel = [r for r in rows if r["name"].startswith(g)]
@@ -150,7 +194,9 @@ def main():
         out = {"inputs": len(sel)}
         for key, get in (("loss", lambda r, s: r[s]["final"]["loss"]),
                          ("gram", lambda r, s: r[s]["final"]["gram"]),
-                         ("vgg19", lambda r, s: r["vgg_" + s])):
+                         ("vgg19", lambda r, s: r["vgg_" + s]),
+                         ("blocks", lambda r, s: r["blocks_" + s]),
+                         ("sorted", lambda r, s: r["sorted_" + s])):
             av = [get(r, "a") for r in sel]
             bv = [get(r, "b") for r in sel]
             wins = sum(y < x for x, y in zip(av, bv))
@@ -162,13 +208,18 @@ def main():
                                     or r["a"]["light"] != r["b"]["light"] for r in sel)
         summary[g or "all"] = out
         print(f"\n[{g or 'all'}] {len(sel)} inputs; winner's rotation or light differs on {out['winner_differs']}")
-        for key in ("loss", "gram", "vgg19"):
+        out["same_preview"] = sum(r["same_preview"] for r in sel)
+        print(f"  same preview on {out['same_preview']}")
+        for key in ("loss", "gram", "vgg19", "blocks", "sorted"):
             o = out[key]
             print(f"  {key:6} B closer {o['b_closer']:2}, farther {o['b_farther']:2} (sign p {o['sign_p']:.3f}); "
                   f"medians {o['median_a']:.4f} -> {o['median_b']:.4f}, median B/A {o['median_ratio']:.3f}")
     if sheet:
-        write_sheet(sheet, a_dir, [r for r in rows if r["a"].get("texture_rotation", 0) != r["b"].get("texture_rotation", 0)
-                                   or r["a"]["light"] != r["b"]["light"]])
+        if sheet_rows == "differ":
+            write_sheet(sheet, a_dir, [r for r in rows if not r["same_preview"]], label_g=True)
+        else:
+            write_sheet(sheet, a_dir, [r for r in rows if r["a"].get("texture_rotation", 0) != r["b"].get("texture_rotation", 0)
+                                       or r["a"]["light"] != r["b"]["light"]])
     if json_out:
         with open(json_out, "w") as f:
             json.dump({"rows": [{k: v for k, v in r.items() if k not in ("a", "b", "b_dir")} |

@@ -73,11 +73,12 @@ assert abs(cands[chosen[0]][r["light"]]["loss"] - r["refinement"]["start_loss"])
 '
 py -c "$start_check" "$tmp/out1/report.json" 4
 check "report: the scene of the best loss, the start the best by G + 4 C there" 0 $?
-# On the marble the two rankings differ (G alone: the fourth candidate; G + 4 C: the
-# second; of the unturned candidates), so the check tells a weight that is honoured from
-# one that is not.
+# On the marble the two rankings differ under the box-by-box colour term (G alone: the
+# fourth candidate; G + 4 C: the second; of the unturned candidates; under the sorted term
+# they agree), so the check tells a weight that is honoured from one that is not.
 marble="$root/tests/handmade/marble/render.exr"
-"$imsynth" predict "$marble" -o "$tmp/sw0" $fast --refine 1 --start-colour-weight 0 --rotation 0
+"$imsynth" predict "$marble" -o "$tmp/sw0" $fast --refine 1 --start-colour-weight 0 --rotation 0 \
+    --colour-term blocks
 check "predict --start-colour-weight 0" 0 $?
 py -c "$start_check" "$tmp/sw0/report.json" 0
 check "--start-colour-weight 0: the start the best by G alone" 0 $?
@@ -129,6 +130,29 @@ for d, t in zip(sys.argv[1:3], (0, 90)):
         assert abs(maps[0]["inputs"]["Rotation"][2] - 1.5707963) < 1e-6, maps[0]
 PY
 check "--rotation 0 / 90: one way's candidates, the turn in material.json" 0 $?
+# --colour-term blocks: the same candidates rendered alike (G the same), each one's C the
+# box-by-box term, never below the default sorted term (evaluate_colour_sorted_distance)
+"$imsynth" predict "$input" -o "$tmp/blocks" $fast --refine 2 --light scene --rotation 0 \
+    --colour-term blocks
+check "predict --colour-term blocks" 0 $?
+py - "$tmp/blocks/report.json" "$tmp/turn0/report.json" << 'PY'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+assert a["loss"]["colour_term"] == "blocks" and b["loss"]["colour_term"] == "sorted", b["loss"]
+assert len(a["candidates"]) == len(b["candidates"])
+lower = 0
+for x, y in zip(a["candidates"], b["candidates"]):
+    assert (x.get("id"), x.get("rank")) == (y.get("id"), y.get("rank")), (x, y)
+    assert x["scene"]["gram"] == y["scene"]["gram"], (x, y)
+    assert y["scene"]["colour"] <= x["scene"]["colour"] + 1e-12, (x, y)
+    lower += y["scene"]["colour"] < x["scene"]["colour"]
+assert lower > 0, "the two terms agree on every candidate: no test"
+PY
+check "--colour-term blocks: same candidates and G, C never below the sorted term" 0 $?
+"$imsynth" predict "$input" -o "$tmp/sorted" $fast --colour-term sideways 2> "$tmp/err"
+check "bad --colour-term" 2 $?
+grep -q "blocks or sorted" "$tmp/err"
+check "bad --colour-term names the choices" 0 $?
 "$imsynth" extract --params "$tmp/turn90/params.json" --texture-rotation 90 -o "$tmp/sub90.json"
 cmp -s "$tmp/sub90.json" "$tmp/turn90/material.json"
 check "--rotation 90: material.json is params.json's sub-shader turned 90" 0 $?

@@ -132,6 +132,89 @@ static void test_colour_distance(void **state)
     image_free(&small);
 }
 
+/* Vertical bars of 1 and 0, each two boxes (14 pixels) wide, moved right by `phase` boxes. */
+static void fill_bars(image *img, int phase)
+{
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++)
+            for (int c = 0; c < 3; c++)
+                img->pixels[(y * img->width + x) * 3 + c] = (float)(((x / 7 + 2 - phase) / 2) % 2);
+}
+
+static void test_colour_sorted_distance(void **state)
+{
+    (void)state;
+    image bars, moved, flat, small;
+    char err[256];
+    double blocks = -1, sorted = -1;
+    assert_int_equal(image_alloc(&bars, 224, 224, 3), 0);
+    assert_int_equal(image_alloc(&moved, 224, 224, 3), 0);
+    assert_int_equal(image_alloc(&flat, 224, 224, 3), 0);
+    assert_int_equal(image_alloc(&small, 224, 100, 3), 0);
+    fill_bars(&bars, 0);
+    fill_bars(&moved, 2); /* the bars moved by their width: every box flips */
+    fill(&flat, 0.5f, 0.5f, 0.5f);
+
+    /* What the sorted term is for: compared box by box, the bars moved by their width are
+     * farther from the bars (1) than a flat field of their mean (0.5); compared as
+     * distributions, the moved bars are the same (0) and the flat field away by 0.5 along
+     * R, G and B and 0 along the three hue differences (all grey): 0.25. */
+    assert_int_equal(evaluate_colour_distance(&bars, &moved, &blocks, err, sizeof err), 0);
+    assert_int_equal(evaluate_colour_sorted_distance(&bars, &moved, &sorted, err, sizeof err), 0);
+    assert_true(fabs(blocks - 1.0) < 1e-9);
+    assert_true(fabs(sorted) < 1e-12);
+    assert_int_equal(evaluate_colour_distance(&bars, &flat, &blocks, err, sizeof err), 0);
+    assert_int_equal(evaluate_colour_sorted_distance(&bars, &flat, &sorted, err, sizeof err), 0);
+    assert_true(fabs(blocks - 0.5) < 1e-9);
+    assert_true(fabs(sorted - 0.25) < 1e-9);
+
+    /* Random images: sorted pairing is the optimal 1-D matching, so never above the
+     * box-by-box pairing; a uniform shift of one channel is the same under both. */
+    uint64_t st = 12345;
+    for (int trial = 0; trial < 4; trial++) {
+        for (int i = 0; i < 224 * 224 * 3; i++) {
+            st = st * 6364136223846793005ULL + 1442695040888963407ULL;
+            moved.pixels[i] = (float)((st >> 40) & 0xffff) / 65535.0f;
+            flat.pixels[i] = i % 3 == 0 ? 0.2f + 0.5f * moved.pixels[i] : moved.pixels[i];
+        }
+        fill_bars(&bars, trial);
+        assert_int_equal(evaluate_colour_distance(&bars, &moved, &blocks, err, sizeof err), 0);
+        assert_int_equal(
+            evaluate_colour_term(PIPELINE_COLOUR_SORTED, &bars, &moved, &sorted, err, sizeof err),
+            0);
+        assert_true(sorted <= blocks + 1e-12);
+        assert_true(sorted > 0.1); /* bars of 0 and 1 against values near 0.5 */
+    }
+    /* Red + 0.3 everywhere: 0.3 / 3 box by box; sorted, 0.3 along R and 0.15 along R - G
+     * and B - R, over six directions: the same 0.1. */
+    fill(&bars, 0.1f, 0.3f, 0.5f);
+    fill(&moved, 0.4f, 0.3f, 0.5f);
+    assert_int_equal(evaluate_colour_term(PIPELINE_COLOUR_BLOCKS, &bars, &moved, &blocks, err,
+                                          sizeof err),
+                     0);
+    assert_int_equal(evaluate_colour_sorted_distance(&bars, &moved, &sorted, err, sizeof err), 0);
+    assert_true(fabs(blocks - 0.1) < 1e-6 && fabs(sorted - 0.1) < 1e-6);
+    /* Red and cyan boxes where white and black ones were: R, G and B each half 1 and half
+     * 0 in both, so channel by channel the two are the same; the hue differences see it.
+     * R - G and B - R: 0 everywhere against +-0.5 in halves, 0.5 each; G - B: 0 in both. */
+    for (int i = 0; i < 224 * 224; i++) {
+        int odd = (i % 224) / 7 % 2;
+        float *p = bars.pixels + (size_t)i * 3, *q = moved.pixels + (size_t)i * 3;
+        p[0] = p[1] = p[2] = odd ? 1.0f : 0.0f;
+        q[0] = odd ? 1.0f : 0.0f;
+        q[1] = q[2] = odd ? 0.0f : 1.0f;
+    }
+    assert_int_equal(evaluate_colour_sorted_distance(&bars, &moved, &sorted, err, sizeof err), 0);
+    assert_true(fabs(sorted - 1.0 / 6) < 1e-9);
+
+    assert_int_equal(evaluate_colour_sorted_distance(&bars, &small, &sorted, err, sizeof err), -1);
+    assert_non_null(strstr(err, "image 2 is 224 x 100"));
+    image_free(&bars);
+    image_free(&moved);
+    image_free(&flat);
+    image_free(&small);
+}
+
 static void test_floor_epsilon(void **state)
 {
     (void)state;
@@ -333,6 +416,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_gram_distance),  cmocka_unit_test(test_colour_distance),
+        cmocka_unit_test(test_colour_sorted_distance),
         cmocka_unit_test(test_floor_epsilon),  cmocka_unit_test(test_quantiles),
         cmocka_unit_test(test_r2_and_spread),  cmocka_unit_test(test_sheet_label),
         cmocka_unit_test(test_view_parse),     cmocka_unit_test(test_share_interval),
