@@ -94,8 +94,10 @@ const char *const pipeline_colour_term_names[PIPELINE_N_COLOUR_TERMS] = {"blocks
 /* The sorted term's directions in RGB: the three channels, and half the difference of each
  * pair, so that a colour's hue is compared and not only its channels one at a time (boxes
  * of blue lines can match the channels of boxes of white highlight beside dark wood, not
- * their differences). Each direction's weights sum to at most 1 in absolute value, so the
- * term stays at most evaluate_colour_distance. */
+ * their differences). Over the six, each channel's weights add up to 2 in absolute value
+ * (1 alone, 1/2 in each of its two differences): paired box by box instead of sorted, the
+ * average over directions is at most evaluate_colour_distance, and sorting, the optimal
+ * pairing, can only lower each direction's. */
 static const double sorted_directions[6][3] = {
     {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.5, -0.5, 0}, {0, 0.5, -0.5}, {-0.5, 0, 0.5},
 };
