@@ -828,12 +828,10 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(report, "texture_rotation", best_turn ? QUARTER_TURN_DEGREES : 0.0);
     cJSON *lossj = cJSON_AddObjectToObject(report, "loss");
     cJSON_AddStringToObject(lossj, "definition",
-                            o->refine.colour_term == PIPELINE_COLOUR_SORTED
-                                ? "G + colour_weight * C; G: Gram distance of the model's "
-                                  "descriptor; C: L1 of the sorted 32x32 box averages, per "
-                                  "channel (docs/predict.md)"
-                                : "G + colour_weight * C; G: Gram distance of the model's "
-                                  "descriptor; C: L1 of 32x32 box averages (docs/predict.md)");
+                            "G + colour_weight * C; G: Gram distance of the model's descriptor; "
+                            "C: L1 of 32x32 box averages, box by box (colour_term blocks) or "
+                            "sorted along R, G, B and their differences (sorted; "
+                            "docs/predict.md)");
     cJSON_AddStringToObject(lossj, "colour_term",
                             pipeline_colour_term_names[o->refine.colour_term]);
     cJSON_AddStringToObject(lossj, "descriptor",
