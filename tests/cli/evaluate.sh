@@ -49,10 +49,18 @@ check "hand-made renders" 0 $?
 n_inputs=4; [ -n "$quick" ] && n_inputs=2
 cmp -s "$hm/render.exr" "$hm/shifted.exr" && { echo "FAIL: the shifted scene moved nothing"; failures=$((failures + 1)); }
 
-# --colour-term blocks: the report's colour column is the box-by-box term, so with it the
-# -refine rows' loss can be recomputed from inputs.csv (below); predict's default, sorted,
-# is checked the same way from predict's report (tests/cli/predict.sh).
-ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft --refine 4 --colour-term blocks"
+# Every -refine row ends no worse than its start under predict's loss (G + 4 C, raw, C the
+# column of the colour term it minimised: colour-sorted by default, colour for blocks), and
+# it spent the 4 renders of --refine. Recomputed from inputs.csv: $1 the file, $2 the column.
+refine_never_worse() {
+    awk -F, -v col="$2" '$4 == "mobilenetv2" { g[$2 "/" $3] = $5; if ($3 ~ /refine/) n[$2 "/" $3] = $8 }
+        $4 == col { c[$2 "/" $3] = $5 }
+        END { for (k in n) { split(k, a, "/"); start = a[1] "/" a[2]; sub(/-refine/, "-topk", start)
+                l = g[k] + 4 * c[k]; l0 = g[start] + 4 * c[start]
+                if (!(l <= l0 * (1 + 1e-9)) || n[k] != 4 || c[k] == "") { print k, l, l0, n[k]; bad = 1 } }
+              exit bad }' "$1"
+}
+ev="--model $tmp/model --test $tmp/test.sqlite --handmade $tmp/hm --top-k 2 --preset draft --refine 4"
 "$imsynth" evaluate $ev --threads 2 -o "$tmp/r2/" > "$tmp/out" 2> "$tmp/err"
 check "evaluate, 2 threads" 0 $?
 expect_stderr "progress with an ETA" "ETA"
@@ -64,11 +72,17 @@ ls "$tmp" | grep -q '\.tmp\.' && { echo "FAIL: a temporary folder left behind"; 
 grep -q 'sheet-handmade.png' "$tmp/r2/index.html" && grep -q '<table>' "$tmp/r2/index.html"
 check "index.html shows tables and sheets" 0 $?
 
-# inputs.csv: the inputs (plain, augmented, hand-made, hand-made flash) x 8 methods x 3
+# inputs.csv: the inputs (plain, augmented, hand-made, hand-made flash) x 8 methods x 4
 # distances, all finite and positive.
 csv="$tmp/r2/inputs.csv"
 rows=$(($(wc -l < "$csv") - 1))
-[ "$rows" = $((n_inputs * 24)) ] && echo "ok: inputs.csv has $n_inputs x 8 x 3 rows" || { echo "FAIL: inputs.csv has $rows rows"; failures=$((failures + 1)); }
+[ "$rows" = $((n_inputs * 32)) ] && echo "ok: inputs.csv has $n_inputs x 8 x 4 rows" || { echo "FAIL: inputs.csv has $rows rows"; failures=$((failures + 1)); }
+# The sorted colour distance is never above the box-by-box one (the same boxes, compared
+# as distributions), nor is its floor.
+awk -F, '$4 == "colour" { c[$1 $2 $3] = $5; f[$1 $2 $3] = $6 } $4 == "colour-sorted" { s[$1 $2 $3] = $5; t[$1 $2 $3] = $6 }
+    END { for (k in c) if (!(k in s) || s[k] > c[k] * (1 + 1e-6) || t[k] > f[k] * (1 + 1e-6)) { print k, c[k], s[k]; bad = 1 }
+          exit bad }' "$csv"
+check "colour-sorted beside colour, never above it" 0 $?
 sets="synthetic handmade"; [ -n "$quick" ] || sets="$sets synthetic-augmented handmade-flash"
 for s in $sets; do
     grep -q "^$s," "$csv" || { echo "FAIL: no $s input"; failures=$((failures + 1)); }
@@ -82,16 +96,9 @@ awk -F, '$4 == "mobilenetv2" { d[$2 "/" $3] = $7; if ($3 ~ /topk/) n[$2 "/" $3] 
             if (!(d[k] <= d[a[1] "/" base]) || n[k] != 2) { print k, d[k], d[a[1] "/" base], n[k]; bad = 1 } }
           exit bad }' "$csv"
 check "top-k picks by the training descriptor (never worse than its first)" 0 $?
-# Each -refine method ends no worse than its start under predict's loss (G + 4 C, raw), and
-# it spent the 4 renders of --refine.
-awk -F, '$4 == "mobilenetv2" { g[$2 "/" $3] = $5; if ($3 ~ /refine/) n[$2 "/" $3] = $8 }
-    $4 == "colour" { c[$2 "/" $3] = $5 }
-    END { for (k in n) { split(k, a, "/"); start = a[1] "/" a[2]; sub(/-refine/, "-topk", start)
-            l = g[k] + 4 * c[k]; l0 = g[start] + 4 * c[start]
-            if (!(l <= l0 * (1 + 1e-9)) || n[k] != 4) { print k, l, l0, n[k]; bad = 1 } }
-          exit bad }' "$csv"
-check "refinement never ends worse than its start" 0 $?
-grep -q '"colour_term":[[:space:]]*"blocks"' "$tmp/r2/report.json"
+refine_never_worse "$csv" colour-sorted
+check "refinement never ends worse than its start (the default colour term, sorted)" 0 $?
+grep -q '"colour_term":[[:space:]]*"sorted"' "$tmp/r2/report.json"
 check "report.json names the colour term the -refine rows minimised" 0 $?
 # The mean method's R^2 is 0 wherever defined: R^2 is taken about the training mean.
 awk -F, '$2 == "mean" && $4 == "value" && $9 !~ /nan/ && $9 != 0 { print; bad = 1 } END { exit bad }' \
@@ -162,6 +169,15 @@ for i in r["inputs"]:
     check "with start colour weight 0 the refinement starts from the -topk pick" 0 $?
     py -c "$start_check" "$tmp/r2/report.json" any
     check "the refinement starts from a -topk candidate" 0 $?
+    # --colour-term blocks: only the -refine rows move, and they minimise the box-by-box column
+    "$imsynth" evaluate $ev --colour-term blocks -o "$tmp/rb" > /dev/null 2>&1
+    check "evaluate, --colour-term blocks" 0 $?
+    grep -v -e '-refine,' "$tmp/rb/inputs.csv" > "$tmp/rb.rest"
+    cmp -s "$tmp/rb.rest" "$tmp/r2.rest"; check "only the -refine rows depend on --colour-term" 0 $?
+    refine_never_worse "$tmp/rb/inputs.csv" colour
+    check "refinement never ends worse than its start (--colour-term blocks)" 0 $?
+    grep -q '"colour_term":[[:space:]]*"blocks"' "$tmp/rb/report.json"
+    check "report.json names --colour-term blocks" 0 $?
     # --starts: the -refine rows race their -topk method's best picks, within --refine
     "$imsynth" evaluate $ev --starts 2 -o "$tmp/rk" > /dev/null 2>&1
     check "evaluate, --starts 2" 0 $?
