@@ -719,7 +719,7 @@ typedef struct predict_options {
     predictor_metric nearest_metric; /* their retrieval (predictor_nearest_metric; whitened) */
     refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
                                * colour_weight also scores the candidates and the final */
-    const datagen_preset *search_preset; /* the candidates ("datagen") */
+    const datagen_preset *search_preset; /* the candidates ("draft") */
     const datagen_preset *refine_preset; /* the refinement's renders ("draft") */
     const datagen_preset *final_preset;  /* the preview ("converged") */
     predict_light light;      /* where the input's light was: our scene, a flash, or try both (auto) */

@@ -57,9 +57,12 @@ void predict_options_default(predict_options *o)
     /* The search renders at draft (1 shading point a pixel, a quarter of datagen's time):
      * 224 of them take about the time of 64 at datagen and end closer to the input on 33
      * of 44 hand-made inputs under the loss, level under the judge (EVALUATION.md, session
-     * 18). The candidates are still picked at datagen, where the loss is less noisy. */
+     * 18). The candidates are scored at draft too (session 30): on 46 held-out inputs the
+     * same start won on 37, the other 9 ended level (closer under the loss on 3, farther
+     * on 6; neither judge significantly farther), and a run took 29% less time. With both
+     * at draft the refinement's start is the winner's own render (no render again). */
     o->refine.budget = 224;
-    o->search_preset = datagen_preset_find("datagen");
+    o->search_preset = datagen_preset_find("draft");
     o->refine_preset = datagen_preset_find("draft");
     o->final_preset = datagen_preset_find("converged");
     /* Both scenes: the candidates' renders double (16 more at the search preset, about

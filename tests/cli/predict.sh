@@ -195,6 +195,20 @@ assert chosen["scene"]["loss"] != r["refinement"]["start_loss"], (chosen, r["ref
 assert r["renders_by_stage"]["refine"] >= 1, r["renders_by_stage"]
 PY
 check "the refinement's start scored at the refine preset" 0 $?
+# By default the candidates are scored at the refine preset (draft): the refinement starts
+# from the winner's own render, so its curve starts at the winner's loss, one render saved.
+"$imsynth" predict "$input" -o "$tmp/rd" --model "$tmp/model" --top-k 2 --nearest 2 --refine 2 \
+    --final-preset draft --light scene --quiet
+check "predict with the default search preset" 0 $?
+py - "$tmp/rd/report.json" << 'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["loss"]["search_preset"] == "draft" == r["loss"]["refine_preset"], r["loss"]
+chosen = [c for c in r["candidates"] if c["chosen"]][0]
+assert chosen["scene"]["loss"] == r["refinement"]["start_loss"], (chosen, r["refinement"])
+assert r["renders_by_stage"]["refine"] == 1, r["renders_by_stage"]
+PY
+check "default: candidates at draft, the refinement starts from the winner's render" 0 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --refine-preset fast 2> "$tmp/err"
 check "bad --refine-preset" 2 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --method cma 2> "$tmp/err"
