@@ -25,7 +25,8 @@ shader frame F:
     draft preset (1 shading point): the render itself, from --stats, and the process's wall
     time (start, load, bind, extract, compile).
   - imsynth predict on frame F's render (imsynth render, default quality, made before the
-    measured part): everything default (candidates at datagen, 224 refinement evaluations at
+    measured part): everything default (candidates at draft since session 30, at datagen
+    before; 224 refinement evaluations at
     the draft refine preset, final preset converged), then the refinement at datagen with 64
     (--refine-preset datagen --refine 64, the default before session 18). Evaluations/s =
     refinement.evaluations / seconds.refine; cached evaluations (a move that leaves the
