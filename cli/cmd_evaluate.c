@@ -66,7 +66,7 @@ static const char *const help =
     "                        predict's; 0: the K likeliest)\n"
     "  --nearest-metric M    the nearest methods' retrieval: pca (default, the stronger\n"
     "                        baseline) or whitened (predict's candidates')\n"
-    "  --refine N            renders of each refinement, its start's included (default 224,\n"
+    "  --refine N            renders of each refinement, its start's included (default 350,\n"
     "                        predict's; 1: the -refine rows are their starts)\n"
     "  --method M            the refinement: coordinate-sweep (default), coordinate,\n"
     "                        coordinate-jump, coordinate-zoom, es, es-split, es-mirror,\n"

@@ -55,7 +55,7 @@ static const char *const help =
     "  --nearest-metric M     their retrieval: whitened (default: Euclidean over the model's\n"
     "                         whitened components) or pca (over its PCA scores: closer\n"
     "                         starts, results no closer; EVALUATION.md, session 27)\n"
-    "  --refine N             refinement renders, the start's included (default 224)\n"
+    "  --refine N             refinement renders, the start's included (default 350)\n"
     "  --method M             coordinate-sweep (default), coordinate, coordinate-jump,\n"
     "                         coordinate-zoom, es, es-split, es-mirror, random\n"
     "                         (docs/predict.md)\n"

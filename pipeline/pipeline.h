@@ -717,7 +717,7 @@ typedef struct predict_options {
                                * (PIPELINE_SAMPLE_HYPOTHESES) */
     int nearest;              /* catalogue candidates (8; 0: none) */
     predictor_metric nearest_metric; /* their retrieval (predictor_nearest_metric; whitened) */
-    refine_options refine;    /* budget 1: the best candidate as it is (default 224); its
+    refine_options refine;    /* budget 1: the best candidate as it is (default 350); its
                                * colour_weight also scores the candidates and the final */
     const datagen_preset *search_preset; /* the candidates ("draft") */
     const datagen_preset *refine_preset; /* the refinement's renders ("draft") */
@@ -739,7 +739,7 @@ typedef struct predict_options {
 } predict_options;
 
 /* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement
- * coordinate-sweep with budget 224, presets datagen (candidates) / draft (refinement) / converged (final),
+ * coordinate-sweep with budget 350, presets draft (candidates) / draft (refinement) / converged (final),
  * light auto, rotation auto (margin 1), colour_weight 4, blender 4, seed 1. */
 void predict_options_default(predict_options *o);
 /* Returns 0, or -1 with a message naming the file and the place. */
