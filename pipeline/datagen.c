@@ -54,6 +54,19 @@ void datagen_preset_render_options(const datagen_preset *p, sg_blender_mode blen
     ro->blender = blender;
 }
 
+void pipeline_render_crop_only(render_options *ro, const render_scene *s)
+{
+    int w, h;
+    render_scene_resolution(s, &w, &h);
+    if (ro->width > 0 && ro->height > 0)
+        w = ro->width, h = ro->height;
+    if ((ro->mode == RENDER_FAST && ro->max_spp > ro->spp) || w < PIPELINE_CROP ||
+        h < PIPELINE_CROP)
+        return;
+    ro->window_x = (w - PIPELINE_CROP) / 2, ro->window_y = (h - PIPELINE_CROP) / 2;
+    ro->window_w = ro->window_h = PIPELINE_CROP;
+}
+
 /* ---------------------------------------------------------------- augmentation ----- */
 
 int datagen_augment_parse(const char *spec, datagen_augment *a, char *err, size_t errlen)

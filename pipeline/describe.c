@@ -243,7 +243,7 @@ _Static_assert(PIPELINE_TEXSTATS_N == TEXSTATS_N, "pipeline.h's count of texture
 
 int pipeline_texstats(const image *img, float *out, char *err, size_t errlen)
 {
-    const int side = 224; /* the descriptors' crop (mnv2_preprocess, vgg_preprocess) */
+    const int side = PIPELINE_CROP; /* the descriptors' crop (mnv2_preprocess, vgg_preprocess) */
     size_t n = (size_t)side * side;
     float *chw = malloc(3 * n * sizeof *chw), *hwc = malloc(3 * n * sizeof *hwc);
     int rc = -1;

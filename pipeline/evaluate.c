@@ -229,8 +229,10 @@ static const datagen_preset *refine_preset(const evaluate_options *o)
     return o->refine_preset ? o->refine_preset : o->preset;
 }
 
+/* crop_only: only the centre crop the distances read (pipeline_render_crop_only), for a
+ * render that is measured and dropped (the refinement's proposals). */
 static int render_params(input_work *iw, const datagen_preset *preset, const float *params,
-                         image *out, char *err, size_t errlen)
+                         int crop_only, image *out, char *err, size_t errlen)
 {
     worker *w = iw->w;
     const shared *sh = w->sh;
@@ -246,6 +248,8 @@ static int render_params(input_work *iw, const datagen_preset *preset, const flo
     datagen_preset_render_options(preset, sh->o->blender, &ro);
     ro.threads = 1;
     ro.seed = iw->seed;
+    if (crop_only)
+        pipeline_render_crop_only(&ro, iw->scene);
     char msg[768];
     int rc = render_image(iw->scene, m, &ro, out, NULL, msg, sizeof msg);
     render_material_free(m);
@@ -282,7 +286,7 @@ static candidate *candidate_get(input_work *iw, const float *params, char *err, 
     }
     memcpy(c->params, params, bytes);
     iw->n_cands++;
-    if (render_params(iw, iw->w->sh->o->preset, params, &c->img, err, errlen))
+    if (render_params(iw, iw->w->sh->o->preset, params, 0, &c->img, err, errlen))
         return NULL;
     return c;
 }
@@ -384,7 +388,7 @@ static int refine_loss_cb(void *ctx, const float *params, double *g, double *c, 
     int k = w->sh->train;
     image img = {0};
     float *desc = NULL;
-    int rc = render_params(iw, refine_preset(w->sh->o), params, &img, err, errlen);
+    int rc = render_params(iw, refine_preset(w->sh->o), params, 1, &img, err, errlen);
     if (rc == 0)
         rc = describe(w, k, &img, &desc, err, errlen);
     if (rc == 0)
@@ -564,7 +568,7 @@ static int evaluate_input(worker *w, const input *in, result *r)
         memcpy(buf, in->params, np * sizeof(float));
         if (sh->offset_param >= 0)
             buf[sh->offset_param] = (float)fmod((double)buf[sh->offset_param] + 0.5, 1.0);
-        rc = render_params(&iw, o->preset, buf, &floor_render, err, errlen);
+        rc = render_params(&iw, o->preset, buf, 0, &floor_render, err, errlen);
         floor_img = &floor_render;
     } else if (rc == 0)
         floor_img = &in->floor_img;

@@ -28,7 +28,7 @@ double evaluate_gram_distance(const float *a, const float *b, const size_t *offs
     return sum / n_layers;
 }
 
-enum { CROP = 224, GRID = 32, BOX = CROP / GRID };
+enum { CROP = PIPELINE_CROP, GRID = 32, BOX = CROP / GRID };
 _Static_assert(GRID * BOX == CROP, "the grid's boxes tile the crop");
 
 /* The 32 x 32 x 3 box averages of img's centre crop, clamped to [0, 1]. */

@@ -43,6 +43,19 @@ void sha256_init(sha256_ctx *c);
 void sha256_update(sha256_ctx *c, const void *data, size_t len);
 void sha256_final_hex(sha256_ctx *c, char out[65]);
 
+/* The centre crop every measure of an image reads (the descriptors, the texture
+ * statistics, the colour terms): PIPELINE_CROP x PIPELINE_CROP pixels from column
+ * (width - PIPELINE_CROP) / 2 and row (height - PIPELINE_CROP) / 2. An image that is only
+ * measured need not be rendered beyond it (predict's search, render_options' window). */
+enum { PIPELINE_CROP = 224 };
+_Static_assert((int)PIPELINE_CROP == (int)VGG_INPUT_SIZE && (int)PIPELINE_CROP == (int)MNV2_INPUT_SIZE,
+               "the descriptors' crop");
+/* Sets ro's window to the scene's PIPELINE_CROP centre when the render allows one (no
+ * adaptive sampling; the image at least the crop): a render only measured, never shown,
+ * then costs 78% of its shading points at 256 x 256, its measures the same bit for bit
+ * (test_render's window test). */
+void pipeline_render_crop_only(render_options *ro, const render_scene *s);
+
 /* ---------------------------------------------------------------- predictor -------- */
 /* Shared by predictor.c (loading, prediction) and predictor_fit.c (training). */
 

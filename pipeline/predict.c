@@ -125,9 +125,11 @@ static int bind(scorer *sc, const float *params, char *err, size_t errlen)
     return 0;
 }
 
-/* Renders the bound graph in scene `scene` with preset p; out is allocated. */
-static int render_bound(scorer *sc, int scene, const datagen_preset *p, image *out, char *err,
-                        size_t errlen)
+/* Renders the bound graph in scene `scene` with preset p; out is allocated. crop_only:
+ * only the centre crop the distances read, where the preset allows it
+ * (pipeline_render_crop_only): the search's renders are measured, never shown. */
+static int render_bound(scorer *sc, int scene, const datagen_preset *p, int crop_only,
+                        image *out, char *err, size_t errlen)
 {
     render_material *m =
         pipeline_render_material(sc->graph, sc->graph_path, sc->o->blender, err, errlen);
@@ -137,6 +139,8 @@ static int render_bound(scorer *sc, int scene, const datagen_preset *p, image *o
     datagen_preset_render_options(p, sc->o->blender, &ro);
     ro.threads = sc->o->threads;
     ro.seed = sc->o->seed;
+    if (crop_only)
+        pipeline_render_crop_only(&ro, sc->scenes[scene]);
     char msg[768];
     double t0 = pipeline_now();
     int rc = render_image(sc->scenes[scene], m, &ro, out, NULL, msg, sizeof msg);
@@ -191,7 +195,7 @@ static int score(scorer *sc, const float *params, double *g, double *c, char *er
             return 0;
         }
     image img = {0};
-    if (render_bound(sc, sc->scene, sc->preset, &img, err, errlen))
+    if (render_bound(sc, sc->scene, sc->preset, 1, &img, err, errlen))
         return -1;
     int rc = image_distances(sc, &img, g, c, err, errlen);
     image_free(&img);
@@ -769,7 +773,7 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     /* The final render, its distances, the sub-shader. */
     progress(o, "final render", 0, 1, rr.best_loss);
     if (bind(&sc, best, err, errlen) ||
-        render_bound(&sc, best_scene, o->final_preset, &preview, err, errlen))
+        render_bound(&sc, best_scene, o->final_preset, 0, &preview, err, errlen))
         goto done;
     double final_g, final_c;
     if (image_distances(&sc, &preview, &final_g, &final_c, err, errlen))

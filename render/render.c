@@ -130,7 +130,10 @@ typedef struct render_job {
     int radius;           /* 0 (reference) or the filter's reach in cells (fast) */
     int units_w, units_h; /* unit (ux, uy) is cell (ux - radius, uy - radius) */
     int taps;             /* (2 radius + 1)^2 */
-    int tiles_x, tiles_y; /* tiles of TILE x TILE units */
+    /* The pixels resolved (the window, or the image) and the units they read: units
+     * px0 .. px0 + pw - 1 + 2 radius (and the same in y), which the tiles cover. */
+    int px0, py0, pw, ph;
+    int tiles_x, tiles_y; /* tiles of TILE x TILE units, from unit (px0, py0) */
     float *sums;          /* units x UNIT_SUMS(taps): see film_add */
     /* Fast mode: cell_weight[d + radius] = the 1D density's integral over the cell d
      * cells from the pixel's; cell_w2 = the sum over taps of the squared 2D weights. */
@@ -356,11 +359,13 @@ static void render_tile(worker *w, int tile)
     const render_options *o = job->opt;
     const ortho_camera *cam = &job->camera;
     tile_film tf;
-    tf.ux0 = (tile % job->tiles_x) * TILE;
-    tf.uy0 = (tile / job->tiles_x) * TILE;
-    tf.tw = job->units_w - tf.ux0 < TILE ? job->units_w - tf.ux0 : TILE;
+    /* the window's units end here (exclusive) */
+    int ux1 = job->px0 + job->pw + 2 * job->radius, uy1 = job->py0 + job->ph + 2 * job->radius;
+    tf.ux0 = job->px0 + (tile % job->tiles_x) * TILE;
+    tf.uy0 = job->py0 + (tile / job->tiles_x) * TILE;
+    tf.tw = ux1 - tf.ux0 < TILE ? ux1 - tf.ux0 : TILE;
     tf.acc = w->tile_acc;
-    int th = job->units_h - tf.uy0 < TILE ? job->units_h - tf.uy0 : TILE;
+    int th = uy1 - tf.uy0 < TILE ? uy1 - tf.uy0 : TILE;
     const int stride = TILE_SUMS(job->taps), keep = UNIT_SUMS(job->taps);
     memset(tf.acc, 0, sizeof(float) * (size_t)(TILE * TILE * stride));
     const int spp = o->spp;
@@ -429,13 +434,14 @@ static void render_tile(worker *w, int tile)
         }
 }
 
-/* The image from the units' sums (see the top of the tiles section). */
+/* The window's pixels from the units' sums (see the top of the tiles section); the rest
+ * of film is left as it is. */
 static void film_resolve(const render_job *job, float *film)
 {
     int r = job->radius, side = 2 * r + 1;
-    int width = job->camera.width, height = job->camera.height;
-    for (int py = 0; py < height; py++)
-        for (int px = 0; px < width; px++) {
+    int width = job->camera.width;
+    for (int py = job->py0; py < job->py0 + job->ph; py++)
+        for (int px = job->px0; px < job->px0 + job->pw; px++) {
             float v[3] = {0, 0, 0};
             for (int dy = -r; dy <= r; dy++)
                 for (int dx = -r; dx <= r; dx++) {
@@ -623,15 +629,34 @@ int render_image(const render_scene *s, const render_material *m, const render_o
     job->taps = side * side;
     job->units_w = width + 2 * job->radius;
     job->units_h = height + 2 * job->radius;
-    job->tiles_x = (job->units_w + TILE - 1) / TILE;
-    job->tiles_y = (job->units_h + TILE - 1) / TILE;
+    /* Adaptive sampling needs room for at least one extra 1x1 set. */
+    int adaptive = o->mode == RENDER_FAST && o->max_spp > o->spp;
+    if (o->window_w || o->window_h || o->window_x || o->window_y) {
+        if (o->window_x < 0 || o->window_y < 0 || o->window_w < 1 || o->window_h < 1 ||
+            o->window_w > width - o->window_x || o->window_h > height - o->window_y) {
+            snprintf(err, errlen, "window %d x %d at (%d, %d) is not inside the %d x %d image",
+                     o->window_w, o->window_h, o->window_x, o->window_y, width, height);
+            free(job);
+            return -1;
+        }
+        if (adaptive) {
+            snprintf(err, errlen, "a window needs adaptive sampling off (max spp <= spp): "
+                                  "its plan reads the whole image");
+            free(job);
+            return -1;
+        }
+        job->px0 = o->window_x, job->py0 = o->window_y;
+        job->pw = o->window_w, job->ph = o->window_h;
+    } else {
+        job->pw = width, job->ph = height;
+    }
+    job->tiles_x = (job->pw + 2 * job->radius + TILE - 1) / TILE;
+    job->tiles_y = (job->ph + 2 * job->radius + TILE - 1) / TILE;
     if (image_alloc(out, width, height, 3) < 0) {
         free(job);
         snprintf(err, errlen, "out of memory for a %dx%d image", width, height);
         return -1;
     }
-    /* Adaptive sampling needs room for at least one extra 1x1 set. */
-    int adaptive = o->mode == RENDER_FAST && o->max_spp > o->spp;
     size_t nunits = (size_t)job->units_w * (size_t)job->units_h;
     job->sums = malloc(nunits * (size_t)UNIT_SUMS(job->taps) * sizeof *job->sums);
     if (adaptive) {

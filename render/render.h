@@ -59,6 +59,13 @@ typedef struct render_options {
      * noise_target 0.03. */
     int max_spp;
     float noise_target;
+    /* A window: only pixels window_x <= x < window_x + window_w, window_y <= y <
+     * window_y + window_h are rendered, each the value a whole render gives it, bit for
+     * bit (a cell's samples depend on the cell's place and the seed alone); the others are
+     * 0. For a caller that looks at a crop only (predict's search: the descriptors' centre
+     * 224 x 224 of 256 x 256 is 77% of the shading points). window_w = 0: the whole image.
+     * Not with adaptive sampling, whose plan reads the whole image's mean. */
+    int window_x, window_y, window_w, window_h;
 } render_options;
 
 void render_options_default(render_options *o);

@@ -371,6 +371,88 @@ static void test_threads_do_not_change_bits(void **state)
     render_scene_free(s);
 }
 
+/* A window's pixels are the whole render's, bit for bit, whatever the window (the tiles,
+ * and so the batches the evaluator sees, move with it); the rest are 0, and only the
+ * window's cells are shaded. Windows that leave the image, or ask for adaptive sampling,
+ * are refused. */
+static void test_window_matches_whole_render(void **state)
+{
+    (void)state;
+    render_scene *s = load_scene();
+    render_material *m = test_material(4);
+    char err[512];
+    enum { W = 40, H = 36 };
+    static const int windows[][4] = {{8, 6, 24, 24}, {0, 0, 1, 1}, {39, 35, 1, 1},
+                                     {3, 0, 17, 36}, {0, 0, W, H}};
+    for (int mode = 0; mode < 2; mode++) {
+        render_options o;
+        render_options_default(&o);
+        o.mode = mode ? RENDER_REFERENCE : RENDER_FAST;
+        o.width = W, o.height = H;
+        o.spp = 2;
+        o.max_spp = 0;
+        o.threads = 2;
+        o.seed = 5;
+        image whole;
+        render_stats ws;
+        if (render_image(s, m, &o, &whole, &ws, err, sizeof err) < 0)
+            fail_msg("%s", err);
+        for (size_t k = 0; k < sizeof windows / sizeof windows[0]; k++) {
+            render_options wo = o;
+            wo.window_x = windows[k][0], wo.window_y = windows[k][1];
+            wo.window_w = windows[k][2], wo.window_h = windows[k][3];
+            image part;
+            render_stats ps;
+            if (render_image(s, m, &wo, &part, &ps, err, sizeof err) < 0)
+                fail_msg("%s", err);
+            assert_int_equal(part.width, W);
+            assert_int_equal(part.height, H);
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    int in = x >= wo.window_x && x < wo.window_x + wo.window_w &&
+                             y >= wo.window_y && y < wo.window_y + wo.window_h;
+                    const float *a = part.pixels + 3 * (y * W + x);
+                    const float *b = whole.pixels + 3 * (y * W + x);
+                    for (int c = 0; c < 3; c++)
+                        if (in ? memcmp(&a[c], &b[c], sizeof(float)) : a[c] != 0.0f)
+                            fail_msg("mode %d, window %zu: pixel (%d, %d) channel %d is %g, "
+                                     "the whole render's %g", mode, k, x, y, c, (double)a[c],
+                                     (double)b[c]);
+                }
+            /* Reference mode shades the window's pixels; fast mode its cells and the
+             * filter's reach around them (1 cell for the scene's 1.5 px filter). */
+            int r = mode ? 0 : 1;
+            uint64_t cells = (uint64_t)(wo.window_w + 2 * r) * (uint64_t)(wo.window_h + 2 * r);
+            assert_true(ps.camera_rays == cells * (uint64_t)o.spp);
+            assert_true(ps.camera_rays <= ws.camera_rays);
+            image_free(&part);
+        }
+        image_free(&whole);
+    }
+    static const int bad[][4] = {{-1, 0, 4, 4}, {0, 0, 0, 4}, {30, 0, 11, 4}, {0, 33, 4, 4}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        render_options o;
+        render_options_default(&o);
+        o.width = W, o.height = H;
+        o.max_spp = 0;
+        o.window_x = bad[k][0], o.window_y = bad[k][1];
+        o.window_w = bad[k][2], o.window_h = bad[k][3];
+        image img;
+        assert_int_equal(render_image(s, m, &o, &img, NULL, err, sizeof err), -1);
+        assert_non_null(strstr(err, "is not inside the 40 x 36 image"));
+        assert_null(img.pixels);
+    }
+    render_options o;
+    render_options_default(&o); /* adaptive sampling on */
+    o.width = W, o.height = H;
+    o.window_w = o.window_h = 8;
+    image img;
+    assert_int_equal(render_image(s, m, &o, &img, NULL, err, sizeof err), -1);
+    assert_non_null(strstr(err, "adaptive sampling"));
+    render_material_free(m);
+    render_scene_free(s);
+}
+
 /* With nothing in view every sample sees the world, so every pixel must be the world's
  * radiance: the fast film's weights per pixel sum to exactly 1 whatever the samples
  * (density-weighted splatting with W / n has ~13% weight noise at 4 samples a cell). */
@@ -598,6 +680,7 @@ int main(void)
         cmocka_unit_test(test_scene_errors),
         cmocka_unit_test(test_object_transform),
         cmocka_unit_test(test_threads_do_not_change_bits),
+        cmocka_unit_test(test_window_matches_whole_render),
         cmocka_unit_test(test_fast_film_weights),
         cmocka_unit_test(test_fast_film_filter_limit),
         cmocka_unit_test(test_fast_matches_reference),
