@@ -61,6 +61,13 @@ render_material *pipeline_render_material(const sg_graph *g, const char *graph_p
  * Returns 0, or -1 with a message. */
 int pipeline_active_params(sg_graph *g, sg_blender_mode blender, uint8_t *active, int *subshader_nodes,
                            char *err, size_t errlen);
+/* The same, the parameters shared among n_graphs threads (at most 8): g[0] is the graph,
+ * g[1..] copies of the same graph (any parameters bound; theirs are restored too), one per
+ * helper thread. The same active[] as pipeline_active_params(g[0]), in about 1 / n_graphs
+ * of its time: its ~50 parameters cost one extraction of the whole super-shader each (7
+ * for an inactive value), predict's search asks after every accepted move. */
+int pipeline_active_params_on(sg_graph *const *g, int n_graphs, sg_blender_mode blender,
+                              uint8_t *active, int *subshader_nodes, char *err, size_t errlen);
 
 /* Of n parameter sets for g (rows in g's parameter order), the indices of the first `keep`
  * at most whose extracted sub-shaders (JSON, constants included) differ from every one kept

@@ -181,6 +181,59 @@ static void test_inactive_params_change_nothing(void **state)
     sg_graph_free(g);
 }
 
+/* Shared among threads, each on its own copy of the graph (the copies bound to other
+ * parameters), the test gives the one-thread answer, and every graph keeps its own
+ * parameters. */
+static void test_active_params_shared(void **state)
+{
+    (void)state;
+    char err[SG_ERROR_MAX] = "";
+    sg_graph *g[3];
+    for (int i = 0; i < 3; i++) {
+        g[i] = sg_graph_load_file(IMSYNTH_SOURCE_DIR "/assets/supershader.json", err, sizeof err);
+        assert_non_null(g[i]);
+    }
+    sg_params p, q;
+    assert_int_equal(sg_params_from_graph(g[0], &p, err, sizeof err), 0);
+    assert_int_equal(sg_params_from_graph(g[0], &q, err, sizeof err), 0);
+    for (int i = 1; i < 3; i++) {
+        sg_params_sample(&q, (unsigned long long)(500 + i));
+        assert_int_equal(sg_graph_bind_params(g[i], &q, err, sizeof err), 0);
+    }
+    int seeds = getenv("IMSYNTH_TEST_QUICK") ? 2 : 4, differ = 0;
+    uint8_t first[64];
+    for (int s = 0; s < seeds; s++) {
+        sg_params_sample(&p, (unsigned long long)(3000 + s));
+        assert_int_equal(sg_graph_bind_params(g[0], &p, err, sizeof err), 0);
+        uint8_t one[64], two[64], three[64];
+        int n1 = 0, n3 = 0;
+        char msg[512];
+        assert_int_equal(pipeline_active_params(g[0], 4, one, &n1, msg, sizeof msg), 0);
+        assert_int_equal(pipeline_active_params_on(g, 2, 4, two, NULL, msg, sizeof msg), 0);
+        assert_int_equal(pipeline_active_params_on(g, 3, 4, three, &n3, msg, sizeof msg), 0);
+        assert_memory_equal(one, two, (size_t)p.n);
+        assert_memory_equal(one, three, (size_t)p.n);
+        assert_int_equal(n1, n3);
+        if (s == 0)
+            memcpy(first, one, (size_t)p.n);
+        else
+            differ += memcmp(first, one, (size_t)p.n) != 0;
+        for (int i = 0; i < 3; i++) {
+            sg_params now;
+            assert_int_equal(sg_params_from_graph(g[i], &now, err, sizeof err), 0);
+            if (i > 0)
+                sg_params_sample(&q, (unsigned long long)(500 + i));
+            assert_memory_equal(now.values, i ? q.values : p.values, sizeof(float) * (size_t)p.n);
+            sg_params_free(&now);
+        }
+    }
+    assert_true(differ > 0); /* the sets differ: the comparison could fail */
+    sg_params_free(&p);
+    sg_params_free(&q);
+    for (int i = 0; i < 3; i++)
+        sg_graph_free(g[i]);
+}
+
 /* Hypotheses that differ only in an inactive parameter extract alike and are kept once;
  * a different material is kept; g's parameters come back unchanged. */
 static void test_distinct_subshaders(void **state)
@@ -235,6 +288,7 @@ int main(void)
         cmocka_unit_test(test_half_float),
         cmocka_unit_test(test_find_data),
         cmocka_unit_test(test_inactive_params_change_nothing),
+        cmocka_unit_test(test_active_params_shared),
         cmocka_unit_test(test_distinct_subshaders),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
