@@ -26,8 +26,8 @@ shader frame F:
     time (start, load, bind, extract, compile).
   - imsynth predict on frame F's render (imsynth render, default quality, made before the
     measured part): everything default (candidates at draft since session 30, at datagen
-    before; 224 refinement evaluations at
-    the draft refine preset, final preset converged), then the refinement at datagen with 64
+    before; the default budget of refinement evaluations, 350 since session 31, 224 before,
+    at the draft refine preset, final preset converged), then the refinement at datagen with 64
     (--refine-preset datagen --refine 64, the default before session 18). Evaluations/s =
     refinement.evaluations / seconds.refine; cached evaluations (a move that leaves the
     sub-shader unchanged) count, report["renders"] says how many renders were made.
