@@ -695,9 +695,7 @@ int datagen_run(const datagen_options *o, long long *made, char *err, size_t err
 
     shared sh;
     memset(&sh, 0, sizeof sh);
-    int threads = o->threads > 0 ? o->threads : (int)sysconf(_SC_NPROCESSORS_ONLN);
-    if (threads < 1)
-        threads = 1;
+    int threads = pipeline_thread_count(o->threads);
     worker *workers = NULL;
     sample_result *res = NULL;
     long long *ids = NULL;

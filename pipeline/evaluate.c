@@ -1787,8 +1787,8 @@ int evaluate_run(const evaluate_options *o, char *err, size_t errlen)
     sh.tile = 128;
     sh.t_start = pipeline_now();
     pthread_mutex_init(&sh.lock, NULL);
-    int threads = o->threads > 0 ? o->threads : (int)sysconf(_SC_NPROCESSORS_ONLN);
-    threads = threads < 1 ? 1 : threads > 256 ? 256 : threads;
+    int threads = pipeline_thread_count(o->threads);
+    threads = threads > 256 ? 256 : threads;
     worker *workers = NULL;
     int n_workers = 0, rc = -1, n_hand = 0, made_tmp = 0, bsize = 4 * threads;
     input *hand = NULL, *batch = NULL;

@@ -15,6 +15,10 @@ int pipeline_error(char *err, size_t errlen, const char *fmt, ...)
 /* Seconds on the monotonic clock. */
 double pipeline_now(void);
 
+/* Worker threads for an option where 0 means every online core: asked if > 0, else the
+ * online cores (at least 1). */
+int pipeline_thread_count(int asked);
+
 /* Inserts index j into order[0..j), kept ascending by key[] (NaN last; ties: the earlier
  * index first): one step of an insertion sort, for ranking an input's few candidates. */
 void pipeline_insert_by_key(int *order, int j, const double *key);
@@ -52,7 +56,7 @@ _Static_assert((int)PIPELINE_CROP == (int)VGG_INPUT_SIZE && (int)PIPELINE_CROP =
                "the descriptors' crop");
 /* Sets ro's window to the scene's PIPELINE_CROP centre when the render allows one (no
  * adaptive sampling; the image at least the crop): a render only measured, never shown,
- * then costs 78% of its shading points at 256 x 256, its measures the same bit for bit
+ * then costs 77% of its shading points at 256 x 256, its measures the same bit for bit
  * (test_render's window test). */
 void pipeline_render_crop_only(render_options *ro, const render_scene *s);
 

@@ -96,15 +96,17 @@ typedef struct cached {
     double g, c;
 } cached;
 
+enum { MAX_HELPERS = 3 }; /* graph copies for the active-parameter test's threads */
+
 typedef struct scorer {
     const predict_options *o;
     sg_graph *graph;               /* the one being scored: graphs[turn] */
     sg_graph *graphs[2];           /* the super-shader as it is, and turned a quarter */
     /* Copies of graphs[t] for the active-parameter test's helper threads, made on first
-     * use: n_helpers = the render threads - 1, at most 3. The test runs after every
+     * use: n_helpers = the render threads - 1, at most MAX_HELPERS. The test runs after every
      * accepted move of the search, one extraction of the whole super-shader a parameter,
      * while the renderer's threads wait: shared, it no longer runs on one core. */
-    sg_graph *helpers[2][3];
+    sg_graph *helpers[2][MAX_HELPERS];
     int n_helpers;
     sg_params params;
     const char *graph_path;
@@ -233,7 +235,7 @@ static int active_cb(void *ctx, const float *params, uint8_t *active, char *err,
     if (bind(sc, params, err, errlen))
         return -1;
     int t = sc->graph == sc->graphs[1];
-    sg_graph *on[4] = {sc->graph};
+    sg_graph *on[1 + MAX_HELPERS] = {sc->graph};
     for (int i = 0; i < sc->n_helpers; i++) {
         if (!sc->helpers[t][i]) {
             char e[SG_ERROR_MAX] = "";
@@ -610,9 +612,8 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
 
     if (!(sc.graph = sc.graphs[0] = pipeline_load_graph(sc.graph_path, NULL, -1, err, errlen)))
         goto done;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    int threads = o->threads > 0 ? o->threads : cores > 0 ? (int)cores : 1;
-    sc.n_helpers = threads - 1 > 3 ? 3 : threads - 1;
+    int threads = pipeline_thread_count(o->threads);
+    sc.n_helpers = threads - 1 > MAX_HELPERS ? MAX_HELPERS : threads - 1;
     char e[SG_ERROR_MAX] = "";
     if (sg_params_from_graph(sc.graph, &sc.params, e, sizeof e) < 0) {
         pipeline_error(err, errlen, "%s: %s", sc.graph_path, e);
@@ -1020,7 +1021,7 @@ done:
     sg_graph_free(sc.graphs[0]);
     sg_graph_free(sc.graphs[1]);
     for (int t = 0; t < 2; t++)
-        for (int i = 0; i < 3; i++)
+        for (int i = 0; i < MAX_HELPERS; i++)
             sg_graph_free(sc.helpers[t][i]);
     for (int s = 0; s < 2; s++)
         render_scene_free(scenes[s]);

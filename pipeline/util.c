@@ -25,6 +25,14 @@ int pipeline_error(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
+int pipeline_thread_count(int asked)
+{
+    if (asked > 0)
+        return asked;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    return cores > 0 ? (int)cores : 1;
+}
+
 double pipeline_now(void)
 {
     struct timespec t;
