@@ -77,7 +77,8 @@ static const char *const help =
     "  --threads T            render threads (default: online CPUs); never changes a byte\n"
     "  --seed S               render noise seed (default 1)\n"
     "  --blender 4|3          node and BSDF semantics (default 4)\n"
-    "  --graph G.json         the super-shader (default assets/supershader.json)\n"
+    "  --graph G.json         the super-shader (default assets/supershader.json; a\n"
+    "                         warning if the model was trained on another)\n"
     "  --blend                also write material.blend (needs Blender 3.4 or 4.x)\n"
     "  --quiet                no progress on stderr\n";
 
@@ -96,6 +97,13 @@ static void progress(void *ctx, const char *stage, int done, int todo, double be
         fprintf(stderr, "predict: %s %d/%d, best loss %.4f\n", stage, done, todo, best);
     }
     fflush(stderr);
+}
+
+/* Printed with --quiet too: a doubt about the result is not progress. */
+static void warn(void *ctx, const char *message)
+{
+    (void)ctx;
+    fprintf(stderr, "imsynth predict: warning: %s\n", message);
 }
 
 int cmd_predict(int argc, char **argv)
@@ -213,6 +221,7 @@ int cmd_predict(int argc, char **argv)
         o.progress = progress;
         o.progress_ctx = &ps;
     }
+    o.warn = warn;
     char err[1024];
     int rc = predict_run(&o, err, sizeof err);
     if (ps.open)

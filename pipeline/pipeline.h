@@ -743,6 +743,10 @@ typedef struct predict_options {
      * render"), counts and the best loss so far. May be NULL. */
     void (*progress)(void *ctx, const char *stage, int done, int todo, double best);
     void *progress_ctx;
+    /* A doubt about the result that is not an error (a model trained on another
+     * super-shader than graph_path); also listed in report.json's "warnings". May be NULL. */
+    void (*warn)(void *ctx, const char *message);
+    void *warn_ctx;
 } predict_options;
 
 /* top_k 8 sampled at PIPELINE_SAMPLE_HYPOTHESES, nearest 8 (whitened), refinement

@@ -386,6 +386,33 @@ static int check_out_dir(const char *dir, int *exists, char *err, size_t errlen)
     return 0;
 }
 
+/* The model's training set was made from a super-shader of SHA-256 model_sha (its
+ * config); a graph of other bytes may give the same parameter names other meanings (a
+ * changed range, session 32's colours), so the result is doubtful but not wrong: a warning.
+ * Fills graph_sha; returns 1 with the message in msg on a mismatch, 0 when the hashes agree
+ * or the model does not say, -1 on an unreadable graph. */
+static int model_graph_mismatch(const predictor *pred, const char *graph_path,
+                                char graph_sha[65], char *msg, size_t msglen, char *err,
+                                size_t errlen)
+{
+    size_t len;
+    char *text = pipeline_read_file(graph_path, &len, err, errlen);
+    if (!text)
+        return -1;
+    pipeline_sha256_hex(text, len, graph_sha);
+    free(text);
+    cJSON *c = cJSON_Parse(predictor_dataset_config(pred) ? predictor_dataset_config(pred) : "");
+    const char *model_sha = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(c, "supershader_sha256"));
+    int differ = model_sha && strcmp(model_sha, graph_sha);
+    if (differ)
+        snprintf(msg, msglen,
+                 "%s (sha256 %.12s) is not the super-shader the model %s was trained on "
+                 "(%.12s): its parameters may mean other things there",
+                 graph_path, graph_sha, predictor_dir(pred), model_sha);
+    cJSON_Delete(c);
+    return differ;
+}
+
 /* material.blend: Blender builds the material (and the scene) from material.json. Its
  * output goes to OUTDIR.tmp.PID/blender.log, so that a failure can be read there. */
 static int write_blend(const char *blender, const char *dir, char *err, size_t errlen)
@@ -632,6 +659,13 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
                            predictor_param_names(pred)[i]);
             goto done;
         }
+    char graph_sha[65], warning[1024] = "";
+    int mismatch = model_graph_mismatch(pred, sc.graph_path, graph_sha, warning, sizeof warning,
+                                        err, errlen);
+    if (mismatch < 0)
+        goto done;
+    if (mismatch && o->warn)
+        o->warn(o->warn_ctx, warning);
 
     /* Describe. */
     progress(o, "describe", 0, 1, NAN);
@@ -858,6 +892,10 @@ int predict_run(const predict_options *o, char *err, size_t errlen)
     cJSON_AddNumberToObject(report, "image_height", raw.height);
     cJSON_AddStringToObject(report, "model", model_dir);
     cJSON_AddStringToObject(report, "supershader", sc.graph_path);
+    cJSON_AddStringToObject(report, "supershader_sha256", graph_sha);
+    cJSON *warnings = cJSON_AddArrayToObject(report, "warnings");
+    if (mismatch)
+        cJSON_AddItemToArray(warnings, cJSON_CreateString(warning));
     cJSON_AddStringToObject(report, "light_asked", predict_light_names[o->light]);
     cJSON_AddStringToObject(report, "light", best_scene ? "flash" : "scene");
     cJSON_AddStringToObject(report, "rotation_asked", predict_rotation_names[o->rotation]);

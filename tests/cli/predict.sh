@@ -20,6 +20,9 @@ input="$root/tests/handmade/brick_wall/render.exr"
 fast="--model $tmp/model --top-k 2 --nearest 2 --refine 6 --search-preset draft --final-preset draft --quiet"
 "$imsynth" predict "$input" -o "$tmp/out1" $fast --threads 1 2> "$tmp/err"
 check "predict, 1 thread" 0 $?
+grep -q "warning" "$tmp/err" && { echo "FAIL: a warning with the model's own super-shader"; failures=$((failures + 1)); }
+py -c "import json,sys; assert json.load(open(sys.argv[1]))['warnings'] == []" "$tmp/out1/report.json"
+check "report: no warnings with the model's own super-shader" 0 $?
 for f in material.json params.json preview.png compare.png report.json; do
     [ -s "$tmp/out1/$f" ] || { echo "FAIL: OUTDIR lacks $f"; failures=$((failures + 1)); }
 done
@@ -209,6 +212,22 @@ assert chosen["scene"]["loss"] == r["refinement"]["start_loss"], (chosen, r["ref
 assert r["renders_by_stage"]["refine"] == 1, r["renders_by_stage"]
 PY
 check "default: candidates at draft, the refinement starts from the winner's render" 0 $?
+# The same graph with one more byte is another file to the model's hash: predict still
+# runs, but says so on stderr (with --quiet too) and in report.json (out1, made with the
+# model's own super-shader, has no warning).
+{ cat "$root/assets/supershader.json"; echo; } > "$tmp/other-supershader.json"
+"$imsynth" predict "$input" -o "$tmp/ow" $fast --refine 1 --light scene --rotation 0 \
+    --graph "$tmp/other-supershader.json" 2> "$tmp/err"
+check "predict with another super-shader than the model's" 0 $?
+expect_stderr "the warning names the graph and the model" \
+    "warning: $tmp/other-supershader.json (sha256 [0-9a-f]*) is not the super-shader the model $tmp/model was trained on"
+py - "$tmp/ow/report.json" << 'PY'
+import hashlib, json, sys
+r = json.load(open(sys.argv[1]))
+assert len(r["warnings"]) == 1 and "is not the super-shader" in r["warnings"][0], r["warnings"]
+assert r["supershader_sha256"] == hashlib.sha256(open(r["supershader"], "rb").read()).hexdigest()
+PY
+check "report: the warning and the graph's sha256" 0 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --refine-preset fast 2> "$tmp/err"
 check "bad --refine-preset" 2 $?
 "$imsynth" predict "$input" -o "$tmp/rq" $fast --method cma 2> "$tmp/err"
