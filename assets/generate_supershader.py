@@ -551,8 +551,8 @@ PALETTE_NAMES = ", ".join(name for _, _, name in PALETTE)
 def hsv_color_module():
     """A colour from three parameters: Hue picks a hue from PALETTE, Saturation scales
     the palette's saturation (squared: most materials muted, a few vivid), Value is
-    mapped to [Value Min, Value Max]; ranges are inputs so one group serves the dark,
-    light and accent colours."""
+    mapped to [Value Min, Value Max]; ranges are inputs so one group serves the two
+    pattern colours and the accent."""
     g = new_group("Parameter Colour",
                   [fin("Hue"), fin("Saturation"), fin("Value"),
                    fin("Saturation Max", 1.0), fin("Value Min", 0.0), fin("Value Max", 1.0)],
@@ -607,12 +607,12 @@ PARAMS = (noise_params("A") + noise_params("B") + noise_params("C") + [
     ("Mult 4 Color Mapping", "Colour mapping", "shape of the colour signal", MAP_CHOICES),
     ("Color Mapping Low", "Colour mapping", "window start", "0..0.45"),
     ("Color Mapping High", "Colour mapping", "window end", "0.55..1"),
-    ("Color 1 Hue", "Colour", "dark colour hue", "palette hue (" + PALETTE_NAMES + ")"),
-    ("Color 1 Saturation", "Colour", "dark colour saturation", "palette saturation x 0..1.3 x parameter"),
-    ("Color 1 Value", "Colour", "dark colour value", "0.02..0.45"),
-    ("Color 2 Hue", "Colour", "light colour hue", "palette hue (" + PALETTE_NAMES + ")"),
-    ("Color 2 Saturation", "Colour", "light colour saturation", "palette saturation x 0..1 x parameter"),
-    ("Color 2 Value", "Colour", "light colour value", "0.3..0.95"),
+    ("Color 1 Hue", "Colour", "hue on the pattern's low side", "palette hue (" + PALETTE_NAMES + ")"),
+    ("Color 1 Saturation", "Colour", "saturation on the low side", "palette saturation x 0..1.3 x parameter"),
+    ("Color 1 Value", "Colour", "value on the low side", "0.02..0.95"),
+    ("Color 2 Hue", "Colour", "hue on the pattern's high side", "palette hue (" + PALETTE_NAMES + ")"),
+    ("Color 2 Saturation", "Colour", "saturation on the high side", "palette saturation x 0..1 x parameter"),
+    ("Color 2 Value", "Colour", "value on the high side", "0.02..0.95"),
     ("Accent Hue", "Colour", "accent (spots, rust) hue", "palette hue (" + PALETTE_NAMES + ")"),
     ("Accent Saturation", "Colour", "accent saturation", "palette saturation x 0..1.5 x parameter"),
     ("Accent Value", "Colour", "accent value", "0.05..0.8"),
@@ -747,8 +747,12 @@ def build():
         t.link(P, prefix + " Value", c, "Value")
         return (c, "Color")
 
-    c1 = colour("Color 1", "Color 1", 1.3, 0.02, 0.45)
-    c2 = colour("Color 2", "Color 2", 1.0, 0.3, 0.95)
+    # The two pattern colours share one value range, so either side can be the darker:
+    # dark bricks in pale mortar as well as pale stones in dark joints (session 32; with
+    # Color 1 at 0.02..0.45 and Color 2 at 0.3..0.95 the pattern's low side was always the
+    # darker, and no mapping mode inverts the signal).
+    c1 = colour("Color 1", "Color 1", 1.3, 0.02, 0.95)
+    c2 = colour("Color 2", "Color 2", 1.0, 0.02, 0.95)
     c3 = colour("Accent Color", "Accent", 1.5, 0.05, 0.8)
     two_tone = t.mix_color("Two-tone", cfac, c1, c2)
     # On a varying signal (never folded), so one Multiply Add node.
@@ -872,7 +876,7 @@ float conversion bit for bit was not worth it: the thesis's renders are lost too
 - *Value Mapping* (3 instances: colour, roughness, height): a window [Low, High] of the
   signal, then linear, smootherstep, terraces (stepped Map Range) or a ridge (Color Ramp
   0 -> 1 -> 0), chosen by a hard 4-way switch.
-- *Parameter Colour* (3 instances: dark, light, accent): Hue walks a Color Ramp of real
+- *Parameter Colour* (3 instances: the pattern's low and high sides, accent): Hue walks a Color Ramp of real
   surface hues ({palette}); saturation is the palette's, scaled by the parameter squared
   (most materials muted, a few vivid); value is mapped per colour.
 - *Hard Switch N* (N = 2, 3, 4, 6, 11): `index = min(floor(v*N), N-1)`, then
