@@ -43,8 +43,12 @@ done
 [ ! -e "$tmp/m1/checkpoint.safetensors" ] || { echo "FAIL: run files left in the model"; failures=$((failures + 1)); }
 lines=$(wc -l < "$tmp/m1/losses.csv")
 [ "$lines" = 7 ] && echo "ok: losses.csv has a row per epoch" || { echo "FAIL: losses.csv has $lines lines"; failures=$((failures + 1)); }
-# the training loss falls (a network that learns nothing would not fit even its training set)
-awk -F, 'NR == 2 { a = $2 } END { if (!($2 < a)) exit 1 }' "$tmp/m1/losses.csv"
+# the training loss falls (a network that learns nothing would not fit even its training
+# set). Without dropout: with the default 0.5 on a 16-wide layer and 3 batches an epoch the
+# per-epoch training loss is a noisy sample of the objective, which rose from epoch 1 to 6
+# on session 32's graph while the validation loss fell at every epoch.
+"$imsynth" fit-predictor $fit --epochs 6 --threads 1 --dropout 0 -o "$tmp/m0"
+awk -F, 'NR == 2 { a = $2 } END { if (!($2 < a)) exit 1 }' "$tmp/m0/losses.csv"
 check "training loss falls over the epochs" 0 $?
 
 # kill -9 at random moments, then the same command: the model of an uninterrupted run.
