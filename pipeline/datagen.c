@@ -707,12 +707,8 @@ int datagen_run(const datagen_options *o, long long *made, char *err, size_t err
 
     /* Hashes of the inputs that define a sample, for the config. */
     char hg[65], hs[65], hf[65];
-    size_t len;
-    char *text = pipeline_read_file(graph_path, &len, err, errlen);
-    if (!text)
+    if (pipeline_file_sha256(graph_path, hg, err, errlen))
         goto done;
-    pipeline_sha256_hex(text, len, hg);
-    free(text);
     pipeline_sha256_hex(sh.scene_text, strlen(sh.scene_text), hs);
     if (sh.flash_text)
         pipeline_sha256_hex(sh.flash_text, strlen(sh.flash_text), hf);

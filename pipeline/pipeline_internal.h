@@ -36,6 +36,10 @@ static inline uint64_t pipeline_splitmix64(uint64_t *state)
 /* Reads a whole file (NUL-terminated; *len excludes the NUL). NULL with a message. */
 char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen);
 
+/* The SHA-256 of a file's bytes, as 64 hex digits: how a dataset, a model and predict name
+ * the super-shader and the masks they were made with. -1 with a message naming the file. */
+int pipeline_file_sha256(const char *path, char out[65], char *err, size_t errlen);
+
 /* SHA-256, incrementally (sha256.c). */
 typedef struct sha256_ctx {
     uint32_t h[8];

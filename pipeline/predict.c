@@ -395,12 +395,8 @@ static int model_graph_mismatch(const predictor *pred, const char *graph_path,
                                 char graph_sha[65], char *msg, size_t msglen, char *err,
                                 size_t errlen)
 {
-    size_t len;
-    char *text = pipeline_read_file(graph_path, &len, err, errlen);
-    if (!text)
+    if (pipeline_file_sha256(graph_path, graph_sha, err, errlen))
         return -1;
-    pipeline_sha256_hex(text, len, graph_sha);
-    free(text);
     cJSON *c = cJSON_Parse(predictor_dataset_config(pred) ? predictor_dataset_config(pred) : "");
     const char *model_sha = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(c, "supershader_sha256"));
     int differ = model_sha && strcmp(model_sha, graph_sha);

@@ -312,13 +312,10 @@ static int pca_fit_per_tap(const float *X, size_t n, size_t d, const char *confi
 static int read_feature_mask(const char *path, size_t d, int k, float **mask, char sha[65],
                              char *err, size_t errlen)
 {
-    size_t len, r, c;
+    size_t r, c;
     char msg[768];
-    char *bytes = pipeline_read_file(path, &len, err, errlen);
-    if (!bytes)
+    if (pipeline_file_sha256(path, sha, err, errlen))
         return -1;
-    pipeline_sha256_hex(bytes, len, sha);
-    free(bytes);
     if (nn_npy_read_f32(path, mask, &r, &c, msg, sizeof msg))
         return pipeline_error(err, errlen, "--feature-mask: %s", msg);
     size_t ones = 0;

@@ -89,6 +89,17 @@ char *pipeline_read_file(const char *path, size_t *len, char *err, size_t errlen
     return buf;
 }
 
+int pipeline_file_sha256(const char *path, char out[65], char *err, size_t errlen)
+{
+    size_t len;
+    char *bytes = pipeline_read_file(path, &len, err, errlen);
+    if (!bytes)
+        return -1;
+    pipeline_sha256_hex(bytes, len, out);
+    free(bytes);
+    return 0;
+}
+
 int pipeline_write_loss_svg(const char *path, const double *loss, const double *val, long long n,
                             const char *xlabel, char *err, size_t errlen)
 {
