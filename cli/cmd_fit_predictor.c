@@ -61,6 +61,9 @@ static const char *const help =
     "  --value-weight W        loss weight of the value regression against the selectors'\n"
     "                          mean cross-entropy (default 10)\n"
     "  --seed S                initial weights, PCA test matrix, shuffling, dropout (default 1)\n"
+    "  --members M             train M networks on the same inputs (member m from seed + m)\n"
+    "                          and predict with their averaged outputs: an ensemble, M\n"
+    "                          times the training time and network bytes (default 1)\n"
     "  --threads T             worker threads (default: online CPUs); never changes a bit\n"
     "  --half                  store the PCA basis and the catalogue in float16 (rounded\n"
     "                          before training, so predictions see what training saw): a\n"
@@ -80,21 +83,27 @@ static void on_sigint(int sig)
 
 typedef struct progress_state {
     int quiet;
+    int epochs_seen;  /* by this process (a resumed run's earlier epochs are not timed) */
     double elapsed;
 } progress_state;
 
-static void progress(void *ctx, int epoch, int epochs, double train_loss, double val_loss,
-                     double acc, double r2, double seconds)
+static void progress(void *ctx, int member, int members, int epoch, int epochs,
+                     double train_loss, double val_loss, double acc, double r2, double seconds)
 {
     progress_state *p = ctx;
     p->elapsed += seconds;
+    p->epochs_seen++;
     if (p->quiet)
         return;
-    double eta = p->elapsed / epoch * (epochs - epoch);
+    long long left = (long long)(members - member - 1) * epochs + (epochs - epoch);
+    double eta = p->elapsed / p->epochs_seen * (double)left;
+    char who[48] = "";
+    if (members > 1)
+        snprintf(who, sizeof who, "network %d/%d ", member + 1, members);
     fprintf(stderr,
-            "fit-predictor: epoch %d/%d  loss %.4f  val %.4f  selector accuracy %.3f  median "
+            "fit-predictor: %sepoch %d/%d  loss %.4f  val %.4f  selector accuracy %.3f  median "
             "R^2 %.3f  %.1f s/epoch  ETA %.0f s\n",
-            epoch, epochs, train_loss, val_loss, acc, r2, seconds, eta);
+            who, epoch, epochs, train_loss, val_loss, acc, r2, seconds, eta);
 }
 
 static void progress_text(void *ctx, const char *what)
@@ -173,6 +182,9 @@ int cmd_fit_predictor(int argc, char **argv)
             bad = cli_parse_ll(sub, a, v, 1, 65536, &x) ? -1 : (o.batch = (int)x, 0);
         else if (!strcmp(a, "--seed"))
             bad = cli_parse_ll(sub, a, v, 0, 1LL << 62, &x) ? -1 : (o.seed = (uint64_t)x, 0);
+        else if (!strcmp(a, "--members"))
+            bad = cli_parse_ll(sub, a, v, 1, PREDICTOR_MAX_MEMBERS, &x) ? -1
+                                                                    : (o.members = (int)x, 0);
         else if (!strcmp(a, "--threads"))
             bad = cli_parse_ll(sub, a, v, 1, 256, &x) ? -1 : (o.threads = (int)x, 0);
         else if (!strcmp(a, "--lr"))

@@ -357,13 +357,21 @@ static void heads_forward(const nn_mlp *m, const mlp_acts *a, int B)
     }
 }
 
+/* The eval-mode forward pass into m's activations (a->probs the outputs). */
+static int eval_forward(nn_mlp *m, const float *x, int B, mlp_acts *a)
+{
+    if (ensure_acts(m, B, a))
+        return -1;
+    trunk_forward(m, a, x, B, 0, 0);
+    heads_forward(m, a, B);
+    return 0;
+}
+
 int nn_mlp_forward(nn_mlp *m, const float *x, int B, float *out)
 {
     mlp_acts a;
-    if (ensure_acts(m, B, &a))
+    if (eval_forward(m, x, B, &a))
         return -1;
-    trunk_forward(m, &a, x, B, 0, 0);
-    heads_forward(m, &a, B);
     memcpy(out, a.probs, (size_t)B * m->cfg.width[m->cfg.n_linear] * sizeof(float));
     return 0;
 }
@@ -374,19 +382,14 @@ static int target_class(const nn_head *h, float v)
     return h->unit_selector ? (int)lrintf(v * (float)(h->classes - 1)) : (int)v;
 }
 
-int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y)
+void nn_mlp_decode(const nn_mlp *m, const float *probs, int B, float *y)
 {
-    mlp_acts a;
-    if (ensure_acts(m, B, &a))
-        return -1;
-    trunk_forward(m, &a, x, B, 0, 0);
-    heads_forward(m, &a, B);
     int out = m->cfg.width[m->cfg.n_linear];
     memset(y, 0, (size_t)B * m->y_cols * sizeof(float));
     for (int k = 0; k < m->n_heads; k++) {
         const nn_head *h = &m->heads[k];
         for (int i = 0; i < B; i++) {
-            const float *p = a.probs + (size_t)i * out + h->out_first;
+            const float *p = probs + (size_t)i * out + h->out_first;
             float *yi = y + (size_t)i * m->y_cols + h->y_first;
             if (h->kind != NN_HEAD_SOFTMAX) {
                 memcpy(yi, p, (size_t)h->count * sizeof(float));
@@ -398,6 +401,14 @@ int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y)
             yi[0] = h->unit_selector ? (float)best / (float)(h->classes - 1) : (float)best;
         }
     }
+}
+
+int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y)
+{
+    mlp_acts a;
+    if (eval_forward(m, x, B, &a))
+        return -1;
+    nn_mlp_decode(m, a.probs, B, y);
     return 0;
 }
 
@@ -528,10 +539,8 @@ int nn_mlp_evaluate(nn_mlp *m, const float *x, const float *y, const float *mask
                     double *loss)
 {
     mlp_acts a;
-    if (ensure_acts(m, B, &a))
+    if (eval_forward(m, x, B, &a))
         return -1;
-    trunk_forward(m, &a, x, B, 0, 0);
-    heads_forward(m, &a, B);
     *loss = heads_loss_backward(m, &a, y, mask, B); /* dlogits is scratch here */
     return 0;
 }

@@ -555,6 +555,9 @@ int nn_mlp_forward(nn_mlp *m, const float *x, int B, float *out);
 /* Y-shaped predictions (B, y_cols): regression values; for softmax heads the argmax class
  * (or k/(classes-1) with unit_selector); columns of no head are 0. */
 int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y);
+/* nn_mlp_predict's second half: outputs as nn_mlp_forward gives them (B,OUT) -> Y-shaped
+ * predictions (B, y_cols). An ensemble decodes its members' averaged outputs with it. */
+void nn_mlp_decode(const nn_mlp *m, const float *probs, int B, float *y);
 /* Training forward (dropout drawn from dropout_seed and step) and backward over one
  * batch: grads are zeroed, then hold dloss/dweights. x (B,IN), y and mask (B,y_cols),
  * mask may be NULL. *loss = the weighted sum of head losses. Returns 0 or -1 (out of

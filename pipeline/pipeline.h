@@ -406,6 +406,8 @@ typedef struct predictor_fit_result {
     size_t train_rows, val_rows;
 } predictor_fit_result;
 
+#define PREDICTOR_MAX_MEMBERS 16
+
 typedef struct predictor_fit_options {
     const char *dataset_path;
     const char *val_dataset_path; /* NULL: hold out val_fraction of the ids (by a hash) */
@@ -435,10 +437,15 @@ typedef struct predictor_fit_options {
     float lr, weight_decay, dropout;
     float value_weight;           /* the value head's loss weight (selectors' sum to 1) */
     uint64_t seed;
+    int members;                  /* 0 or 1: one network; M: an ensemble of M networks on
+                                   * the same inputs, member m trained from seed + m, whose
+                                   * outputs predictions average (at most
+                                   * PREDICTOR_MAX_MEMBERS) */
     int threads;                  /* 0 = 1; never changes a bit */
     int restart;                  /* discard an unfinished run with other settings */
-    void (*progress)(void *ctx, int epoch, int epochs, double train_loss, double val_loss,
-                     double val_selector_accuracy, double val_median_r2, double seconds);
+    void (*progress)(void *ctx, int member, int members, int epoch, int epochs,
+                     double train_loss, double val_loss, double val_selector_accuracy,
+                     double val_median_r2, double seconds);
     void (*progress_text)(void *ctx, const char *what);
     void *progress_ctx;
     volatile int *stop;           /* non-zero: stop after the current epoch (resumable) */

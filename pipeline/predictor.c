@@ -49,12 +49,17 @@ struct predictor {
                                      * (predictor_sample_hypotheses) */
     predictor_metric metric;        /* predictor_nearest's distance */
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
-    nn_mlp net;
+    int n_nets;                     /* an ensemble's members (model.json "network"."members"),
+                                     * or 1; their outputs are averaged */
+    char net_files[PREDICTOR_MAX_MEMBERS][64];
+    nn_mlp nets[PREDICTOR_MAX_MEMBERS];
     size_t n_cat;
     float *cat_z, *cat_params;      /* (n_cat, k), (n_cat, n_params) */
     long long *cat_id;
     char *dataset_config;
     float *x, *z, *out;             /* scratch: (d), (k + ns + nc), (outputs) */
+    float *member_out;              /* scratch: a member's outputs, (outputs) per row */
+    int member_rows;                /* member_out's rows */
 };
 
 /* ---------------------------------------------------------------- layout ----------- */
@@ -261,7 +266,9 @@ void predictor_free(predictor *p)
     free(p->components);
     free(p->variance);
     free(p->mean_params);
-    nn_mlp_free(&p->net);
+    for (int m = 0; m < PREDICTOR_MAX_MEMBERS; m++)
+        nn_mlp_free(&p->nets[m]);
+    free(p->member_out);
     free(p->cat_z);
     free(p->cat_params);
     free(p->cat_id);
@@ -355,6 +362,32 @@ static int read_model_json(predictor *p, const char *path, char *err, size_t err
         goto done;
     }
     p->nc = sel_in ? predictor_layout_classes(&p->lay) : 0;
+    // an ensemble names its members' files; a single network is network.safetensors
+    const cJSON *members = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(root, "network"), "members");
+    p->n_nets = 1;
+    snprintf(p->net_files[0], sizeof p->net_files[0], "network.safetensors");
+    if (members) {
+        int count = cJSON_GetArraySize(members);
+        if (!cJSON_IsArray(members) || count < 1 || count > PREDICTOR_MAX_MEMBERS) {
+            pipeline_error(err, errlen, "%s: \"network\".\"members\" must list 1 to %d files",
+                           path, PREDICTOR_MAX_MEMBERS);
+            goto done;
+        }
+        for (int m = 0; m < count; m++) {
+            const char *f = cJSON_GetStringValue(cJSON_GetArrayItem(members, m));
+            // a plain name in the model's directory: a model cannot point outside itself
+            if (!f || !*f || strchr(f, '/') || !strcmp(f, "..") ||
+                strlen(f) >= sizeof p->net_files[m]) {
+                pipeline_error(err, errlen, "%s: \"network\".\"members\"[%d] must be a file "
+                                            "name in the model's directory",
+                               path, m);
+                goto done;
+            }
+            snprintf(p->net_files[m], sizeof p->net_files[m], "%s", f);
+        }
+        p->n_nets = count;
+    }
     p->d = (size_t)feat->valuedouble;
     p->k = (int)comp->valuedouble;
     p->kind = pipeline_descriptor_kind_named(kind->valuestring);
@@ -463,22 +496,30 @@ predictor *predictor_load(const char *model_dir, char *err, size_t errlen)
         }
     nn_safetensors_close(&st);
 
-    if (predictor_path_join(path, sizeof path, dir, "network.safetensors", err, errlen))
-        goto fail;
-    if (nn_mlp_load(&p->net, NULL, path, msg, sizeof msg)) {
-        pipeline_error(err, errlen, "%s", msg);
-        goto fail;
-    }
     int outputs = predictor_layout_outputs(&p->lay);
-    if (p->net.cfg.width[0] != p->k + p->ns + p->nc ||
-        p->net.cfg.width[p->net.cfg.n_linear] != outputs) {
-        pipeline_error(err, errlen, "%s: the network maps %d inputs to %d outputs; the model "
-                                    "needs %d to %d",
-                       path, p->net.cfg.width[0], p->net.cfg.width[p->net.cfg.n_linear],
-                       p->k + p->ns + p->nc, outputs);
-        goto fail;
+    for (int m = 0; m < p->n_nets; m++) {
+        nn_mlp *net = &p->nets[m];
+        if (predictor_path_join(path, sizeof path, dir, p->net_files[m], err, errlen))
+            goto fail;
+        if (nn_mlp_load(net, NULL, path, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto fail;
+        }
+        if (net->cfg.width[0] != p->k + p->ns + p->nc ||
+            net->cfg.width[net->cfg.n_linear] != outputs ||
+            (m && (memcmp(&net->cfg, &p->nets[0].cfg, sizeof net->cfg) ||
+                   net->n_heads != p->nets[0].n_heads ||
+                   memcmp(net->heads, p->nets[0].heads,
+                          (size_t)net->n_heads * sizeof *net->heads)))) {
+            pipeline_error(err, errlen, "%s: the network maps %d inputs to %d outputs; the model "
+                                        "needs %d to %d%s",
+                           path, net->cfg.width[0], net->cfg.width[net->cfg.n_linear],
+                           p->k + p->ns + p->nc, outputs,
+                           m ? ", with the first member's layers and heads" : "");
+            goto fail;
+        }
+        net->threads = 1;
     }
-    p->net.threads = 1;
     if (!(p->out = malloc((size_t)outputs * sizeof(float)))) {
         pipeline_error(err, errlen, "out of memory");
         goto fail;
@@ -688,6 +729,33 @@ static int likeliest_combos(const predictor *p, int k, combo *beam)
     return nb;
 }
 
+/* The members' averaged outputs for B rows of inputs, summed in member order (as
+ * fit-predictor's validation figures were made). 0 or -1 (out of memory). */
+static int ensemble_forward(predictor *p, const float *x, int B, float *out)
+{
+    if (nn_mlp_forward(&p->nets[0], x, B, out))
+        return -1;
+    if (p->n_nets == 1)
+        return 0;
+    size_t count = (size_t)B * (size_t)predictor_layout_outputs(&p->lay);
+    if (B > p->member_rows) {
+        float *nb = realloc(p->member_out, count * sizeof(float));
+        if (!nb)
+            return -1;
+        p->member_out = nb;
+        p->member_rows = B;
+    }
+    for (int m = 1; m < p->n_nets; m++) {
+        if (nn_mlp_forward(&p->nets[m], x, B, p->member_out))
+            return -1;
+        for (size_t j = 0; j < count; j++)
+            out[j] += p->member_out[j];
+    }
+    for (size_t j = 0; j < count; j++)
+        out[j] /= (float)p->n_nets;
+    return 0;
+}
+
 int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
                       float *params, double *prob, char *err, size_t errlen)
 {
@@ -704,7 +772,7 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         return -1;
     if (p->ns)
         predictor_texstats_standardise(p->z + p->k, texstats, p->stats_mean, p->stats_std);
-    if (nn_mlp_forward(&p->net, p->z, 1, p->out))
+    if (ensemble_forward(p, p->z, 1, p->out))
         return pipeline_error(err, errlen, "out of memory");
     const param_layout *L = &p->lay;
     combo *beam = malloc(sizeof(combo) * (size_t)k);
@@ -728,7 +796,7 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
                 cls[si] = (float)beam[h].cls[si];
             predictor_layout_onehot(L, cls, x + (size_t)(h * width + p->k + p->ns));
         }
-        int bad = !x || !given || nn_mlp_forward(&p->net, x, nb, given);
+        int bad = !x || !given || ensemble_forward(p, x, nb, given);
         free(x);
         if (bad) {
             free(given);

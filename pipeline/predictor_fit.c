@@ -385,27 +385,49 @@ static int mkdir_p1(const char *dir, char *err, size_t errlen)
 }
 
 /* Removes the files of a run directory (a run makes no folders), keeping the directory. */
-static void clear_dir(const char *dir)
+/* Removes dir's files (all of them, or only_run_files: the checkpoints and best weights of
+ * run_file, which a kill between writing a new one and unlinking the old can leave). */
+static void clear_dir(const char *dir, int only_run_files)
 {
     DIR *d = opendir(dir);
     if (d) {
         struct dirent *e;
         char path[1400];
-        while ((e = readdir(d)))
-            if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
-                snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-                unlink(path);
-            }
+        while ((e = readdir(d))) {
+            const char *n = e->d_name;
+            if (!strcmp(n, ".") || !strcmp(n, ".."))
+                continue;
+            if (only_run_files && strncmp(n, "checkpoint-", 11) && strncmp(n, "best-", 5) &&
+                strncmp(n, "member", 6))
+                continue;
+            snprintf(path, sizeof path, "%s/%s", dir, n);
+            unlink(path);
+        }
         closedir(d);
     }
 }
 
 /* The checkpoint after `epochs` epochs and the best weights as of then carry the epoch in
  * their names: state.json names the ones it goes with, so a kill between writing them and
- * writing the state leaves the state's own files untouched. */
-static void run_file(char *out, size_t len, const char *dir, const char *what, int epoch)
+ * writing the state leaves the state's own files untouched. Member 0's names are those of
+ * a single network's run. */
+static void run_file(char *out, size_t len, const char *dir, const char *what, int member,
+                     int epoch)
 {
-    snprintf(out, len, "%s/%s-%d.safetensors", dir, what, epoch);
+    if (member)
+        snprintf(out, len, "%s/member%d-%s-%d.safetensors", dir, member + 1, what, epoch);
+    else
+        snprintf(out, len, "%s/%s-%d.safetensors", dir, what, epoch);
+}
+
+/* A finished member's weights, as the model directory keeps them: network.safetensors,
+ * then network-2.safetensors, ... (model.json's "network"."members" lists them). */
+static void member_file(char *out, size_t len, const char *dir, int member)
+{
+    if (member)
+        snprintf(out, len, "%s/network-%d.safetensors", dir, member + 1);
+    else
+        snprintf(out, len, "%s/network.safetensors", dir);
 }
 
 static int write_transform(const char *path, const float *scale, const float *mean,
@@ -529,24 +551,38 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* input: the network's inputs of val's rows (val->input, or the rows given their
- * combination for a conditional model's R^2 given the selectors). */
-static int compute_metrics(nn_mlp *net, const param_layout *L, const rowset *val,
+/* The metrics of n_nets networks' averaged outputs (one network: its own). input: the
+ * networks' inputs of val's rows (val->input, or the rows given their combination for a
+ * conditional model's R^2 given the selectors). */
+static int compute_metrics(nn_mlp *nets, int n_nets, const param_layout *L, const rowset *val,
                            const float *input, const rowset *train, const float *mean_y,
                            fit_metrics *fm)
 {
     memset(fm, 0, sizeof *fm);
-    int yc = L->n_values + L->n_selectors;
+    int yc = L->n_values + L->n_selectors, out = nets[0].cfg.width[nets[0].cfg.n_linear];
     float *pred = malloc((val->n ? val->n : 1) * (size_t)yc * sizeof(float));
-    if (!pred)
-        return -1;
-    for (size_t i = 0; i < val->n; i += 256) {
+    float *sum = malloc((size_t)256 * (size_t)out * sizeof(float));
+    float *one = malloc((size_t)256 * (size_t)out * sizeof(float));
+    int bad = !pred || !sum || !one;
+    for (size_t i = 0; !bad && i < val->n; i += 256) {
         int B = val->n - i < 256 ? (int)(val->n - i) : 256;
-        if (nn_mlp_predict(net, input + i * (size_t)net->cfg.width[0], B,
-                           pred + i * (size_t)yc)) {
-            free(pred);
-            return -1;
+        size_t count = (size_t)B * (size_t)out;
+        for (int m = 0; !bad && m < n_nets; m++) {
+            bad = nn_mlp_forward(&nets[m], input + i * (size_t)nets[0].cfg.width[0], B,
+                                 m ? one : sum);
+            for (size_t j = 0; m && j < count; j++)
+                sum[j] += one[j];
         }
+        for (size_t j = 0; n_nets > 1 && j < count; j++)
+            sum[j] /= (float)n_nets;
+        if (!bad)
+            nn_mlp_decode(&nets[0], sum, B, pred + i * (size_t)yc);
+    }
+    free(sum);
+    free(one);
+    if (bad) {
+        free(pred);
+        return -1;
     }
     double r2s[2 * NN_MAX_HEADS];
     int nr2 = 0;
@@ -630,6 +666,8 @@ static char *run_settings_json(const predictor_fit_options *o, const char *arch,
     cJSON_AddNumberToObject(j, "weight_decay", o->weight_decay);
     cJSON_AddNumberToObject(j, "value_weight", o->value_weight);
     cJSON_AddNumberToObject(j, "seed", (double)o->seed);
+    if (o->members > 1)
+        cJSON_AddNumberToObject(j, "members", o->members);
     cJSON_AddStringToObject(j, "optimizer", "adamw, cosine schedule, 1 epoch warm-up");
     cJSON *cfg = cJSON_Parse(train_config);
     cJSON_AddItemToObject(j, "dataset_config", cfg ? cfg : cJSON_CreateNull());
@@ -661,15 +699,26 @@ static int write_losses(const char *dir, const double *train_loss, const double 
 }
 
 typedef struct run_state {
-    int epochs_done, best_epoch;
+    int member;                /* the network being trained; those before it are finished */
+    int epochs_done, best_epoch; /* the member's */
     double best_val;
-    double *train_loss, *val_loss, *acc, *r2; /* epochs each */
+    double *train_loss, *val_loss, *acc, *r2; /* epochs each, the member's */
+    int done_best_epoch[PREDICTOR_MAX_MEMBERS]; /* the finished members' (member entries) */
+    double done_best_val[PREDICTOR_MAX_MEMBERS];
 } run_state;
 
 static char *state_json(const char *settings, const run_state *s)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddItemToObject(j, "settings", cJSON_Parse(settings));
+    cJSON_AddNumberToObject(j, "member", s->member);
+    cJSON *fin = cJSON_AddArrayToObject(j, "members_done"); /* [best epoch, best val loss] */
+    for (int m = 0; m < s->member; m++) {
+        cJSON *r = cJSON_CreateArray();
+        cJSON_AddItemToArray(r, cJSON_CreateNumber(s->done_best_epoch[m]));
+        cJSON_AddItemToArray(r, cJSON_CreateNumber(s->done_best_val[m]));
+        cJSON_AddItemToArray(fin, r);
+    }
     cJSON_AddNumberToObject(j, "epochs_done", s->epochs_done);
     cJSON_AddNumberToObject(j, "best_epoch", s->best_epoch);
     // null until an epoch has a finite validation loss (cJSON would print infinity as null
@@ -692,8 +741,10 @@ static char *state_json(const char *settings, const run_state *s)
 }
 
 /* Reads OUT.partial/state.json: 1 when it is a run with these settings (s filled in), 0
- * when there is none, 2 when it is another run's (or unreadable). */
-static int state_read(const char *path, const char *settings, run_state *s, int epochs)
+ * when there is none, 2 when it is another run's (or unreadable). A state without
+ * "member" (written before ensembles) is member 0's. */
+static int state_read(const char *path, const char *settings, run_state *s, int epochs,
+                      int members)
 {
     char *text = pipeline_read_file(path, NULL, NULL, 0);
     if (!text)
@@ -706,9 +757,19 @@ static int state_read(const char *path, const char *settings, run_state *s, int 
         const cJSON *be = cJSON_GetObjectItemCaseSensitive(j, "best_epoch");
         const cJSON *bv = cJSON_GetObjectItemCaseSensitive(j, "best_val_loss");
         const cJSON *h = cJSON_GetObjectItemCaseSensitive(j, "history");
+        const cJSON *mem = cJSON_GetObjectItemCaseSensitive(j, "member");
+        const cJSON *fin = cJSON_GetObjectItemCaseSensitive(j, "members_done");
+        int member = cJSON_IsNumber(mem) ? mem->valueint : 0;
         if (cJSON_IsNumber(done) && cJSON_IsNumber(be) &&
             (cJSON_IsNumber(bv) || cJSON_IsNull(bv)) && done->valueint >= 0 &&
-            done->valueint <= epochs && cJSON_GetArraySize(h) == done->valueint) {
+            done->valueint <= epochs && cJSON_GetArraySize(h) == done->valueint &&
+            member >= 0 && member < members && cJSON_GetArraySize(fin) == member) {
+            s->member = member;
+            for (int m = 0; m < member; m++) {
+                const cJSON *r = cJSON_GetArrayItem(fin, m);
+                s->done_best_epoch[m] = (int)cJSON_GetNumberValue(cJSON_GetArrayItem(r, 0));
+                s->done_best_val[m] = cJSON_GetNumberValue(cJSON_GetArrayItem(r, 1));
+            }
             s->epochs_done = done->valueint;
             s->best_epoch = be->valueint;
             s->best_val = cJSON_IsNull(bv) ? INFINITY : bv->valuedouble;
@@ -730,8 +791,9 @@ static int state_read(const char *path, const char *settings, run_state *s, int 
 static char *model_json(const predictor_fit_options *o, const param_layout *L,
                         char *const *names, const char *settings, const char *config,
                         size_t d, const rowset *train, const rowset *val, const run_state *st,
-                        const fit_metrics *fm, const fit_metrics *given, const char *arch,
-                        const char *heads, double seconds)
+                        const fit_metrics *fm, const fit_metrics *first,
+                        const fit_metrics *given, const char *arch, const char *heads,
+                        double seconds)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "format", MODEL_FORMAT);
@@ -774,6 +836,16 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     cJSON *net = cJSON_AddObjectToObject(j, "network");
     cJSON_AddStringToObject(net, "arch", arch);
     cJSON_AddStringToObject(net, "heads", heads);
+    if (st->member > 1) {
+        cJSON *mem = cJSON_AddArrayToObject(net, "members");
+        for (int m = 0; m < st->member; m++) {
+            char file[64];
+            member_file(file, sizeof file, ".", m);
+            cJSON_AddItemToArray(mem, cJSON_CreateString(file + 2));
+        }
+        cJSON_AddStringToObject(net, "ensemble", "the members' outputs (softmax probabilities, "
+                                "values) averaged; member m trained from seed + m");
+    }
     if (o->conditional) {
         cJSON_AddNumberToObject(net, "selector_inputs", predictor_layout_classes(L));
         cJSON_AddStringToObject(net, "conditional",
@@ -783,8 +855,17 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     }
     cJSON_AddItemToObject(j, "training", cJSON_Parse(settings));
     cJSON *res = cJSON_AddObjectToObject(j, "result");
-    cJSON_AddNumberToObject(res, "best_epoch", st->best_epoch);
-    cJSON_AddNumberToObject(res, "best_val_loss", st->best_val);
+    cJSON_AddNumberToObject(res, "best_epoch", st->done_best_epoch[0]); /* the first member's */
+    cJSON_AddNumberToObject(res, "best_val_loss", st->done_best_val[0]);
+    if (st->member > 1) {
+        cJSON *be = cJSON_AddArrayToObject(res, "members_best_epoch");
+        for (int m = 0; m < st->member; m++)
+            cJSON_AddItemToArray(be, cJSON_CreateNumber(st->done_best_epoch[m]));
+        cJSON_AddNumberToObject(res, "first_member_val_mean_selector_accuracy",
+                                first->mean_selector_acc);
+        cJSON_AddNumberToObject(res, "first_member_val_median_value_r2",
+                                first->median_value_r2);
+    }
     cJSON_AddNumberToObject(res, "seconds", round(seconds * 10) / 10);
     cJSON_AddNumberToObject(res, "val_mean_selector_accuracy", fm->mean_selector_acc);
     cJSON_AddNumberToObject(res, "val_median_value_r2", fm->median_value_r2);
@@ -827,7 +908,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     float stats_mean[TEXSTATS_N], stats_std[TEXSTATS_N];
     char mask_sha[65] = "";
     size_t *order = NULL;
-    nn_mlp net = {0};
+    nn_mlp net = {0}, nets[PREDICTOR_MAX_MEMBERS] = {0};
     nn_optimizer opt = {0};
     run_state st = {0};
     char partial[1100], path[1200], arch[256], heads_spec[1024], msg[768];
@@ -841,6 +922,10 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
                               o->out_dir);
     if (o->epochs < 1 || o->batch < 1 || o->components < 1 || !(o->lr > 0))
         return pipeline_error(err, errlen, "epochs, batch, components and lr must be positive");
+    int members = o->members > 0 ? o->members : 1;
+    if (members > PREDICTOR_MAX_MEMBERS)
+        return pipeline_error(err, errlen, "members: at most %d networks",
+                              PREDICTOR_MAX_MEMBERS);
 
     // OpenBLAS's own threads would split sums differently from run to run (nn/nn.h); our
     // workers parallelise instead
@@ -915,7 +1000,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
     }
     char state_path[1200];
     snprintf(state_path, sizeof state_path, "%s/state.json", partial);
-    int resumed = state_read(state_path, settings, &st, o->epochs);
+    int resumed = state_read(state_path, settings, &st, o->epochs, members);
     if (resumed == 2 && !o->restart) {
         pipeline_error(err, errlen, "%s: an unfinished run with other settings; rerun it with "
                                     "its settings, or pass --restart to discard it",
@@ -923,7 +1008,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         goto done;
     }
     if (resumed != 1) { /* nothing to resume (or discarded): start from an empty directory */
-        clear_dir(partial);
+        clear_dir(partial, 0);
         resumed = 0;
     }
 
@@ -1030,46 +1115,16 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         mean_y[c] = n ? (float)(s / n) : 0.0f;
     }
 
-    // 5. the network and optimiser (from the checkpoint when resuming)
+    // 5. what every member shares: heads, batches, the validation rows
     nn_head heads[NN_MAX_HEADS];
     int nh = predictor_layout_heads(&L, heads, o->value_weight);
     nn_heads_format(heads, nh, heads_spec, sizeof heads_spec);
     long long per_epoch = (long long)((train.n + (size_t)o->batch - 1) / (size_t)o->batch);
-    run_file(path, sizeof path, partial, "checkpoint", st.epochs_done);
-    if (resumed == 1 && st.epochs_done > 0) {
-        if (nn_mlp_load(&net, &opt, path, msg, sizeof msg)) {
-            pipeline_error(err, errlen, "%s", msg);
-            goto done;
-        }
-    } else {
-        if (nn_mlp_create(&net, &cfg, heads, nh, o->seed, msg, sizeof msg)) {
-            pipeline_error(err, errlen, "%s", msg);
-            goto done;
-        }
-        nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
-        oc.lr = o->lr;
-        oc.weight_decay = o->weight_decay;
-        oc.schedule = NN_SCHEDULE_COSINE;
-        oc.warmup_steps = per_epoch;
-        oc.total_steps = per_epoch * o->epochs;
-        if (nn_optimizer_init(&opt, &oc, net.n_floats)) {
-            pipeline_error(err, errlen, "out of memory");
-            goto done;
-        }
-    }
-    net.threads = o->threads > 0 ? o->threads : 1;
-    net.dropout_seed = o->seed;
-    if (nn_mlp_check_data(&net, train.input, train.Y, train.M, train.n, msg, sizeof msg) ||
-        nn_mlp_check_data(&net, val.input, val.Y, val.M, val.n, msg, sizeof msg)) {
-        pipeline_error(err, errlen, "%s", msg);
-        goto done;
-    }
-    best_w = malloc(net.n_floats * sizeof(float));
     bx = malloc((size_t)(pairs * o->batch) * (size_t)nin * sizeof(float));
     by = malloc((size_t)(pairs * o->batch) * (size_t)yc * sizeof(float));
     bm = malloc((size_t)(pairs * o->batch) * (size_t)yc * sizeof(float));
     order = malloc(train.n * sizeof(size_t));
-    if (!best_w || !bx || !by || !bm || !order) {
+    if (!bx || !by || !bm || !order) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
@@ -1091,120 +1146,196 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         vys = vy;
         vms = vm;
     }
-    memcpy(best_w, net.weights, net.n_floats * sizeof(float));
-    run_file(path, sizeof path, partial, "best", st.best_epoch);
-    if (resumed == 1 && st.epochs_done > 0) {
-        nn_mlp tmp = {0};
-        if (nn_mlp_load(&tmp, NULL, path, msg, sizeof msg) || tmp.n_floats != net.n_floats) {
-            nn_mlp_free(&tmp);
-            pipeline_error(err, errlen, "%s: %s", path, msg);
-            goto done;
-        }
-        memcpy(best_w, tmp.weights, net.n_floats * sizeof(float));
-        nn_mlp_free(&tmp);
-    }
 
-    // 6. epochs
-    for (int e = st.epochs_done; e < o->epochs; e++) {
-        double t0 = pipeline_now(), sum = 0;
-        nn_epoch_order(o->seed, e, 1, train.n, order);
-        for (long long s = 0; s < per_epoch; s++) {
-            long long epoch;
-            size_t first;
-            int count;
-            nn_step_batch((long long)e * per_epoch + s, train.n, o->batch, &epoch, &first, &count);
-            nn_gather_rows(bx, train.input, (size_t)nin, order + first, (size_t)count);
-            nn_gather_rows(by, train.Y, (size_t)yc, order + first, (size_t)count);
-            nn_gather_rows(bm, train.M, (size_t)yc, order + first, (size_t)count);
-            if (o->conditional)
-                pair_with_combination(&L, kin, nin, bx, by, bm, (size_t)count);
-            double loss;
-            if (nn_mlp_train_step(&net, &opt, bx, by, bm, pairs * count, &loss)) {
-                pipeline_error(err, errlen, "out of memory");
-                goto done;
-            }
-            sum += loss * count;
-        }
-        double vl;
-        fit_metrics fm;
-        if (nn_mlp_evaluate(&net, vxs, vys, vms, pairs * (int)val.n, &vl) ||
-            compute_metrics(&net, &L, &val, val.input, &train, mean_y, &fm)) {
-            pipeline_error(err, errlen, "out of memory");
-            goto done;
-        }
-        st.train_loss[e] = sum / (double)train.n;
-        st.val_loss[e] = vl;
-        st.acc[e] = fm.mean_selector_acc;
-        st.r2[e] = fm.median_value_r2;
-        int old_best = st.best_epoch;
-        st.epochs_done = e + 1;
-        if (vl < st.best_val) {
-            st.best_val = vl;
-            st.best_epoch = e + 1;
-            memcpy(best_w, net.weights, net.n_floats * sizeof(float));
-            run_file(path, sizeof path, partial, "best", e + 1);
-            if (nn_mlp_save(&net, NULL, path, msg, sizeof msg)) {
+    // 6. the members, one after another: member m from seed + m (initial weights,
+    // shuffling, dropout), on the same inputs; a single network is member 0 alone, seeded
+    // as before ensembles existed. Each ends as its best epoch's weights in member_file.
+    while (st.member < members) {
+        int m = st.member;
+        uint64_t seed = o->seed + (uint64_t)m;
+        run_file(path, sizeof path, partial, "checkpoint", m, st.epochs_done);
+        if (st.epochs_done > 0) {
+            if (nn_mlp_load(&net, &opt, path, msg, sizeof msg)) {
                 pipeline_error(err, errlen, "%s", msg);
                 goto done;
             }
+        } else {
+            if (nn_mlp_create(&net, &cfg, heads, nh, seed, msg, sizeof msg)) {
+                pipeline_error(err, errlen, "%s", msg);
+                goto done;
+            }
+            nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
+            oc.lr = o->lr;
+            oc.weight_decay = o->weight_decay;
+            oc.schedule = NN_SCHEDULE_COSINE;
+            oc.warmup_steps = per_epoch;
+            oc.total_steps = per_epoch * o->epochs;
+            if (nn_optimizer_init(&opt, &oc, net.n_floats)) {
+                pipeline_error(err, errlen, "out of memory");
+                goto done;
+            }
         }
-        run_file(path, sizeof path, partial, "checkpoint", e + 1);
-        free(text);
-        text = state_json(settings, &st);
-        if (nn_mlp_save(&net, &opt, path, msg, sizeof msg) ||
-            pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
+        net.threads = o->threads > 0 ? o->threads : 1;
+        net.dropout_seed = seed;
+        if (nn_mlp_check_data(&net, train.input, train.Y, train.M, train.n, msg, sizeof msg) ||
+            nn_mlp_check_data(&net, val.input, val.Y, val.M, val.n, msg, sizeof msg)) {
             pipeline_error(err, errlen, "%s", msg);
             goto done;
         }
-        // the state now names epoch e + 1's files: the previous ones can go
-        run_file(path, sizeof path, partial, "checkpoint", e);
-        unlink(path);
-        if (old_best != st.best_epoch) {
-            run_file(path, sizeof path, partial, "best", old_best);
-            unlink(path);
-        }
-        if (o->progress)
-            o->progress(o->progress_ctx, e + 1, o->epochs, st.train_loss[e], vl, st.acc[e],
-                        st.r2[e], pipeline_now() - t0);
-        if (o->stop && *o->stop && e + 1 < o->epochs) {
-            rc = 1;
+        if (!best_w && !(best_w = malloc(net.n_floats * sizeof(float)))) {
+            pipeline_error(err, errlen, "out of memory");
             goto done;
         }
+        memcpy(best_w, net.weights, net.n_floats * sizeof(float));
+        run_file(path, sizeof path, partial, "best", m, st.best_epoch);
+        if (st.epochs_done > 0) {
+            nn_mlp tmp = {0};
+            if (nn_mlp_load(&tmp, NULL, path, msg, sizeof msg) || tmp.n_floats != net.n_floats) {
+                nn_mlp_free(&tmp);
+                pipeline_error(err, errlen, "%s: %s", path, msg);
+                goto done;
+            }
+            memcpy(best_w, tmp.weights, net.n_floats * sizeof(float));
+            nn_mlp_free(&tmp);
+        }
+
+        for (int e = st.epochs_done; e < o->epochs; e++) {
+            double t0 = pipeline_now(), sum = 0;
+            nn_epoch_order(seed, e, 1, train.n, order);
+            for (long long b = 0; b < per_epoch; b++) {
+                long long epoch;
+                size_t first;
+                int count;
+                nn_step_batch((long long)e * per_epoch + b, train.n, o->batch, &epoch, &first,
+                              &count);
+                nn_gather_rows(bx, train.input, (size_t)nin, order + first, (size_t)count);
+                nn_gather_rows(by, train.Y, (size_t)yc, order + first, (size_t)count);
+                nn_gather_rows(bm, train.M, (size_t)yc, order + first, (size_t)count);
+                if (o->conditional)
+                    pair_with_combination(&L, kin, nin, bx, by, bm, (size_t)count);
+                double loss;
+                if (nn_mlp_train_step(&net, &opt, bx, by, bm, pairs * count, &loss)) {
+                    pipeline_error(err, errlen, "out of memory");
+                    goto done;
+                }
+                sum += loss * count;
+            }
+            double vl;
+            fit_metrics fm;
+            if (nn_mlp_evaluate(&net, vxs, vys, vms, pairs * (int)val.n, &vl) ||
+                compute_metrics(&net, 1, &L, &val, val.input, &train, mean_y, &fm)) {
+                pipeline_error(err, errlen, "out of memory");
+                goto done;
+            }
+            st.train_loss[e] = sum / (double)train.n;
+            st.val_loss[e] = vl;
+            st.acc[e] = fm.mean_selector_acc;
+            st.r2[e] = fm.median_value_r2;
+            int old_best = st.best_epoch;
+            st.epochs_done = e + 1;
+            if (vl < st.best_val) {
+                st.best_val = vl;
+                st.best_epoch = e + 1;
+                memcpy(best_w, net.weights, net.n_floats * sizeof(float));
+                run_file(path, sizeof path, partial, "best", m, e + 1);
+                if (nn_mlp_save(&net, NULL, path, msg, sizeof msg)) {
+                    pipeline_error(err, errlen, "%s", msg);
+                    goto done;
+                }
+            }
+            run_file(path, sizeof path, partial, "checkpoint", m, e + 1);
+            free(text);
+            text = state_json(settings, &st);
+            if (nn_mlp_save(&net, &opt, path, msg, sizeof msg) ||
+                pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
+                pipeline_error(err, errlen, "%s", msg);
+                goto done;
+            }
+            // the state now names epoch e + 1's files: the previous ones can go
+            run_file(path, sizeof path, partial, "checkpoint", m, e);
+            unlink(path);
+            if (old_best != st.best_epoch) {
+                run_file(path, sizeof path, partial, "best", m, old_best);
+                unlink(path);
+            }
+            if (o->progress)
+                o->progress(o->progress_ctx, m, members, e + 1, o->epochs, st.train_loss[e], vl,
+                            st.acc[e], st.r2[e], pipeline_now() - t0);
+            if (o->stop && *o->stop && (e + 1 < o->epochs || m + 1 < members)) {
+                rc = 1;
+                goto done;
+            }
+        }
+
+        // the member is finished: its best weights, its curves (the first member's are the
+        // model's losses.csv), then a state that starts the next; a kill before that state
+        // redoes only this (the same bytes)
+        memcpy(net.weights, best_w, net.n_floats * sizeof(float));
+        member_file(path, sizeof path, partial, m);
+        if (nn_mlp_save(&net, NULL, path, msg, sizeof msg) ||
+            (m == 0 && write_losses(partial, st.train_loss, st.val_loss, st.acc, st.r2,
+                                    st.epochs_done, msg, sizeof msg))) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+        run_state next = st;
+        next.done_best_epoch[m] = st.best_epoch;
+        next.done_best_val[m] = st.best_val;
+        next.member = m + 1;
+        next.epochs_done = next.best_epoch = 0;
+        next.best_val = INFINITY;
+        free(text);
+        text = state_json(settings, &next);
+        if (!text || pipeline_write_text_atomic(state_path, text, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
+            goto done;
+        }
+        run_file(path, sizeof path, partial, "checkpoint", m, st.epochs_done);
+        unlink(path);
+        run_file(path, sizeof path, partial, "best", m, st.best_epoch);
+        unlink(path);
+        st = next;
+        nn_mlp_free(&net);
+        nn_optimizer_free(&opt);
+        memset(&net, 0, sizeof net);
+        memset(&opt, 0, sizeof opt);
     }
 
-    // 7. the model: best weights, catalogue, description; then OUT in one rename
-    memcpy(net.weights, best_w, net.n_floats * sizeof(float));
-    fit_metrics fm, given;
-    if (compute_metrics(&net, &L, &val, val.input, &train, mean_y, &fm) ||
+    // 7. the model: the members read back (their averaged outputs are its predictions),
+    // catalogue, description; then OUT in one rename
+    for (int m = 0; m < members; m++) {
+        member_file(path, sizeof path, partial, m);
+        if (nn_mlp_load(&nets[m], NULL, path, msg, sizeof msg)) {
+            pipeline_error(err, errlen, "%s", msg);
+            goto done;
+        }
+        nets[m].threads = o->threads > 0 ? o->threads : 1;
+    }
+    fit_metrics fm, first, given;
+    if (compute_metrics(nets, members, &L, &val, val.input, &train, mean_y, &fm) ||
+        compute_metrics(nets, 1, &L, &val, val.input, &train, mean_y, &first) ||
         (o->conditional &&
-         compute_metrics(&net, &L, &val, vx + val.n * (size_t)nin, &train, mean_y, &given))) {
+         compute_metrics(nets, members, &L, &val, vx + val.n * (size_t)nin, &train, mean_y,
+                         &given))) {
         pipeline_error(err, errlen, "out of memory");
         goto done;
     }
-    snprintf(path, sizeof path, "%s/network.safetensors", partial);
-    if (nn_mlp_save(&net, NULL, path, msg, sizeof msg)) {
-        pipeline_error(err, errlen, "%s", msg);
-        goto done;
-    }
     snprintf(path, sizeof path, "%s/catalogue.safetensors", partial);
-    if (write_catalogue(path, &train, k, np, o->half, o->catalogue, msg, sizeof msg) ||
-        write_losses(partial, st.train_loss, st.val_loss, st.acc, st.r2, st.epochs_done, msg,
-                     sizeof msg)) {
+    if (write_catalogue(path, &train, k, np, o->half, o->catalogue, msg, sizeof msg)) {
         pipeline_error(err, errlen, "%s", msg);
         goto done;
     }
     free(text);
-    text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm,
+    text = model_json(o, &L, names, settings, config, d, &train, &val, &st, &fm, &first,
                       o->conditional ? &given : NULL, arch, heads_spec, pipeline_now() - t_start);
     snprintf(path, sizeof path, "%s/model.json", partial);
     if (!text || pipeline_write_text_atomic(path, text, msg, sizeof msg)) {
         pipeline_error(err, errlen, "%s", text ? msg : "out of memory");
         goto done;
     }
-    run_file(path, sizeof path, partial, "checkpoint", st.epochs_done);
-    unlink(path);
-    run_file(path, sizeof path, partial, "best", st.best_epoch);
-    unlink(path);
+    // a kill between writing a checkpoint (or a member's finishing state) and unlinking
+    // the files it replaces leaves those behind
+    clear_dir(partial, 1);
     unlink(state_path);
     if (rename(partial, o->out_dir)) {
         pipeline_error(err, errlen, "%s: cannot rename into place: %s", o->out_dir,
@@ -1212,8 +1343,8 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         goto done;
     }
     if (o->result) {
-        o->result->best_epoch = st.best_epoch;
-        o->result->best_val_loss = st.best_val;
+        o->result->best_epoch = st.done_best_epoch[0];
+        o->result->best_val_loss = st.done_best_val[0];
         o->result->mean_selector_accuracy = fm.mean_selector_acc;
         o->result->median_value_r2 = fm.median_value_r2;
         o->result->train_rows = train.n;
@@ -1253,6 +1384,8 @@ done:
     free(st.r2);
     nn_mlp_free(&net);
     nn_optimizer_free(&opt);
+    for (int m = 0; m < PREDICTOR_MAX_MEMBERS; m++)
+        nn_mlp_free(&nets[m]);
     if (lock_fd >= 0)
         close(lock_fd);
     return rc;

@@ -330,6 +330,65 @@ check "one-hot inputs in model.json; each hypothesis its own values" 0 $?
 lying_model mc bc "m['network']['selector_inputs'] = 75"
 check "a model claiming 75 one-hot inputs" 1 $?
 expect_stderr "names the file and the field" "bc/model.json: \"network\".\"selector_inputs\" must be 76"
+# --members 3: an ensemble of three networks on one transform. Member 1 is the single
+# network of the same settings (seed + 0), the others differ; predictions average the
+# three (so differ from member 1's alone); kill -9 in the second member and resume gives
+# the uninterrupted bytes; a model.json naming a member outside its folder, or one that is
+# missing, is refused
+"$imsynth" fit-predictor $fit --epochs 3 --threads 2 -o "$tmp/m3" &&
+    "$imsynth" fit-predictor $fit --epochs 3 --members 3 --threads 2 -o "$tmp/me"
+check "fit --members 3" 0 $?
+cmp -s "$tmp/m3/network.safetensors" "$tmp/me/network.safetensors" &&
+    cmp -s "$tmp/m3/transform.safetensors" "$tmp/me/transform.safetensors"
+check "the first member is the single network of the same settings" 0 $?
+cmp -s "$tmp/me/network.safetensors" "$tmp/me/network-2.safetensors"
+check "the second member differs from the first" 1 $?
+py -c "
+import json
+m = json.load(open('$tmp/me/model.json'))
+assert m['network']['members'] == ['network.safetensors', 'network-2.safetensors', 'network-3.safetensors'], m['network']
+assert m['training']['members'] == 3 and len(m['result']['members_best_epoch']) == 3, m['result']
+assert 0 <= m['result']['first_member_val_mean_selector_accuracy'] <= 1
+s = json.load(open('$tmp/m3/model.json'))
+assert 'members' not in s['network'] and 'members' not in s['training']
+assert s['result']['val_mean_selector_accuracy'] == m['result']['first_member_val_mean_selector_accuracy']
+"
+check "model.json lists the members; the first member's figures are the single network's" 0 $?
+"$imsynth" predict-params "$img" --model "$tmp/m3" -o "$tmp/p3.json" &&
+    "$imsynth" predict-params "$img" --model "$tmp/me" -o "$tmp/pe.json"
+check "an ensemble predicts" 0 $?
+cmp -s "$tmp/p3.json" "$tmp/pe.json"
+check "the ensemble's prediction is not its first member's" 1 $?
+# (300 epochs of a wider network: long enough for the kill to land in the second member)
+long="--epochs 300 --hidden 256 --members 2 --threads 2"
+"$imsynth" fit-predictor $fit $long -o "$tmp/mel" &&
+    "$imsynth" fit-predictor $fit $long -o "$tmp/mk3" &
+pid=$!
+i=0
+while ! grep -q '"member":.1' "$tmp/mk3.partial/state.json" 2> /dev/null && [ $i -lt 1000 ]; do
+    sleep 0.02; i=$((i + 1))
+done
+sleep 0.3; pkill -9 -f "$tmp/mk3" 2> /dev/null; wait $pid 2> /dev/null
+grep -q '"member":.1' "$tmp/mk3.partial/state.json" && [ ! -e "$tmp/mk3" ] ||
+    echo "note: the kill did not land in the second member"
+"$imsynth" fit-predictor $fit $long -o "$tmp/mk3"
+same=$?
+for f in network.safetensors network-2.safetensors losses.csv; do
+    cmp -s "$tmp/mel/$f" "$tmp/mk3/$f" || same=1
+done
+[ $same = 0 ]
+check "an ensemble killed in its second member resumes to the uninterrupted bytes" 0 $?
+ls "$tmp/mk3" | grep -q "checkpoint\|best\|member"
+check "no run files left in the ensemble's folder" 1 $?
+lying_model me be1 "m['network']['members'][1] = '../m3/network.safetensors'"
+check "a model naming a member outside its folder" 1 $?
+expect_stderr "names the file and the field" "be1/model.json: \"network\".\"members\"\\[1\\] must be a file"
+cp -r "$tmp/me" "$tmp/be2" && rm "$tmp/be2/network-3.safetensors"
+"$imsynth" predict-params "$img" --model "$tmp/be2" 2> "$tmp/err"
+check "a model missing a member" 1 $?
+expect_stderr "names the missing file" "be2/network-3.safetensors"
+"$imsynth" fit-predictor $fit --members 17 -o "$tmp/bm" 2> "$tmp/err"
+check "--members 17 is a usage error" 2 $?
 # without --model: the bundled model, as predict and search use it
 "$imsynth" predict-params "$img" --top-k 2 --hypotheses "$tmp/hb.json" -o "$tmp/pb.json"
 check "predict-params without --model" 0 $?
