@@ -742,7 +742,8 @@ static char *state_json(const char *settings, const run_state *s)
 
 /* Reads OUT.partial/state.json: 1 when it is a run with these settings (s filled in), 0
  * when there is none, 2 when it is another run's (or unreadable). A state without
- * "member" (written before ensembles) is member 0's. */
+ * "member" (written before ensembles) is member 0's; member == members: every network is
+ * finished and the model was being written when the run stopped. */
 static int state_read(const char *path, const char *settings, run_state *s, int epochs,
                       int members)
 {
@@ -763,7 +764,7 @@ static int state_read(const char *path, const char *settings, run_state *s, int 
         if (cJSON_IsNumber(done) && cJSON_IsNumber(be) &&
             (cJSON_IsNumber(bv) || cJSON_IsNull(bv)) && done->valueint >= 0 &&
             done->valueint <= epochs && cJSON_GetArraySize(h) == done->valueint &&
-            member >= 0 && member < members && cJSON_GetArraySize(fin) == member) {
+            member >= 0 && member <= members && cJSON_GetArraySize(fin) == member) {
             s->member = member;
             for (int m = 0; m < member; m++) {
                 const cJSON *r = cJSON_GetArrayItem(fin, m);

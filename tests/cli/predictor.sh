@@ -380,6 +380,29 @@ done
 check "an ensemble killed in its second member resumes to the uninterrupted bytes" 0 $?
 ls "$tmp/mk3" | grep -q "checkpoint\|best\|member"
 check "no run files left in the ensemble's folder" 1 $?
+# A kill after the last member's finishing state, while the model is written, leaves a
+# state naming every member done: the same command completes it (for one network as for
+# three). The window is too short to hit with a timed kill: the state is made from the
+# finished model, as such a kill would have left it.
+for pair in "m3 1" "me 3"; do
+    set -- $pair
+    rm -rf "$tmp/w.partial" "$tmp/w"
+    cp -r "$tmp/$1" "$tmp/w.partial"
+    rm "$tmp/w.partial/model.json" "$tmp/w.partial/catalogue.safetensors"
+    py -c "
+import json
+m = json.load(open('$tmp/$1/model.json')); r = m['result']
+epochs = r.get('members_best_epoch', [r['best_epoch']])
+json.dump({'settings': m['training'], 'member': $2, 'members_done': [[e, 2.5] for e in epochs],
+           'epochs_done': 0, 'best_epoch': 0, 'best_val_loss': None, 'history': []},
+          open('$tmp/w.partial/state.json', 'w'))
+"
+    sed -i "s|$tmp/$1|$tmp/w|g" "$tmp/w.partial/state.json"
+    "$imsynth" fit-predictor $fit --epochs 3 $([ $2 = 3 ] && echo --members 3) --threads 2 -o "$tmp/w" &&
+        cmp -s "$tmp/$1/network.safetensors" "$tmp/w/network.safetensors" &&
+        cmp -s "$tmp/$1/catalogue.safetensors" "$tmp/w/catalogue.safetensors" && [ ! -e "$tmp/w/state.json" ]
+    check "killed while writing the model ($2 network(s)): the rerun completes it" 0 $?
+done
 lying_model me be1 "m['network']['members'][1] = '../m3/network.safetensors'"
 check "a model naming a member outside its folder" 1 $?
 expect_stderr "names the file and the field" "be1/model.json: \"network\".\"members\"\\[1\\] must be a file"
