@@ -376,6 +376,23 @@ int nn_mlp_forward(nn_mlp *m, const float *x, int B, float *out)
     return 0;
 }
 
+int nn_mlp_forward_mean(nn_mlp *nets, int n, const float *x, int B, float *out)
+{
+    size_t count = (size_t)B * (size_t)nets[0].cfg.width[nets[0].cfg.n_linear];
+    if (nn_mlp_forward(&nets[0], x, B, out))
+        return -1;
+    for (int k = 1; k < n; k++) {
+        mlp_acts a; /* member k's own activations: no scratch of ours */
+        if (eval_forward(&nets[k], x, B, &a))
+            return -1;
+        for (size_t j = 0; j < count; j++)
+            out[j] += a.probs[j];
+    }
+    for (size_t j = 0; n > 1 && j < count; j++)
+        out[j] /= (float)n;
+    return 0;
+}
+
 /* The class a softmax head's Y value v means. */
 static int target_class(const nn_head *h, float v)
 {

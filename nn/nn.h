@@ -552,6 +552,10 @@ const nn_param *nn_mlp_find_param(const nn_mlp *m, const char *name);
 /* Network outputs after the heads' activations (sigmoid, softmax probabilities), (B,OUT),
  * in eval mode (no dropout). */
 int nn_mlp_forward(nn_mlp *m, const float *x, int B, float *out);
+/* An ensemble's outputs: the mean of n networks' nn_mlp_forward (same layers and heads),
+ * summed in member order, so that every caller gets the same bits. n = 1 is
+ * nn_mlp_forward. Returns 0 or -1 (out of memory). */
+int nn_mlp_forward_mean(nn_mlp *nets, int n, const float *x, int B, float *out);
 /* Y-shaped predictions (B, y_cols): regression values; for softmax heads the argmax class
  * (or k/(classes-1) with unit_selector); columns of no head are 0. */
 int nn_mlp_predict(nn_mlp *m, const float *x, int B, float *y);

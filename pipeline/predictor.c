@@ -58,8 +58,6 @@ struct predictor {
     long long *cat_id;
     char *dataset_config;
     float *x, *z, *out;             /* scratch: (d), (k + ns + nc), (outputs) */
-    float *member_out;              /* scratch: a member's outputs, (outputs) per row */
-    int member_rows;                /* member_out's rows */
 };
 
 /* ---------------------------------------------------------------- layout ----------- */
@@ -268,7 +266,6 @@ void predictor_free(predictor *p)
     free(p->mean_params);
     for (int m = 0; m < PREDICTOR_MAX_MEMBERS; m++)
         nn_mlp_free(&p->nets[m]);
-    free(p->member_out);
     free(p->cat_z);
     free(p->cat_params);
     free(p->cat_id);
@@ -729,33 +726,6 @@ static int likeliest_combos(const predictor *p, int k, combo *beam)
     return nb;
 }
 
-/* The members' averaged outputs for B rows of inputs, summed in member order (as
- * fit-predictor's validation figures were made). 0 or -1 (out of memory). */
-static int ensemble_forward(predictor *p, const float *x, int B, float *out)
-{
-    if (nn_mlp_forward(&p->nets[0], x, B, out))
-        return -1;
-    if (p->n_nets == 1)
-        return 0;
-    size_t count = (size_t)B * (size_t)predictor_layout_outputs(&p->lay);
-    if (B > p->member_rows) {
-        float *nb = realloc(p->member_out, count * sizeof(float));
-        if (!nb)
-            return -1;
-        p->member_out = nb;
-        p->member_rows = B;
-    }
-    for (int m = 1; m < p->n_nets; m++) {
-        if (nn_mlp_forward(&p->nets[m], x, B, p->member_out))
-            return -1;
-        for (size_t j = 0; j < count; j++)
-            out[j] += p->member_out[j];
-    }
-    for (size_t j = 0; j < count; j++)
-        out[j] /= (float)p->n_nets;
-    return 0;
-}
-
 int predictor_predict(predictor *p, const float *descriptor, const float *texstats, int k,
                       float *params, double *prob, char *err, size_t errlen)
 {
@@ -772,7 +742,7 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
         return -1;
     if (p->ns)
         predictor_texstats_standardise(p->z + p->k, texstats, p->stats_mean, p->stats_std);
-    if (ensemble_forward(p, p->z, 1, p->out))
+    if (nn_mlp_forward_mean(p->nets, p->n_nets, p->z, 1, p->out))
         return pipeline_error(err, errlen, "out of memory");
     const param_layout *L = &p->lay;
     combo *beam = malloc(sizeof(combo) * (size_t)k);
@@ -796,7 +766,7 @@ int predictor_predict(predictor *p, const float *descriptor, const float *texsta
                 cls[si] = (float)beam[h].cls[si];
             predictor_layout_onehot(L, cls, x + (size_t)(h * width + p->k + p->ns));
         }
-        int bad = !x || !given || ensemble_forward(p, x, nb, given);
+        int bad = !x || !given || nn_mlp_forward_mean(p->nets, p->n_nets, x, nb, given);
         free(x);
         if (bad) {
             free(given);

@@ -384,9 +384,9 @@ static int mkdir_p1(const char *dir, char *err, size_t errlen)
     return 0;
 }
 
-/* Removes the files of a run directory (a run makes no folders), keeping the directory. */
-/* Removes dir's files (all of them, or only_run_files: the checkpoints and best weights of
- * run_file, which a kill between writing a new one and unlinking the old can leave). */
+/* Removes the files of a run directory (a run makes no folders), keeping the directory:
+ * all of them, or only_run_files: the checkpoints and best weights of run_file, which a
+ * kill between writing a new one and unlinking the old can leave. */
 static void clear_dir(const char *dir, int only_run_files)
 {
     DIR *d = opendir(dir);
@@ -422,12 +422,19 @@ static void run_file(char *out, size_t len, const char *dir, const char *what, i
 
 /* A finished member's weights, as the model directory keeps them: network.safetensors,
  * then network-2.safetensors, ... (model.json's "network"."members" lists them). */
-static void member_file(char *out, size_t len, const char *dir, int member)
+static void member_name(char *out, size_t len, int member)
 {
     if (member)
-        snprintf(out, len, "%s/network-%d.safetensors", dir, member + 1);
+        snprintf(out, len, "network-%d.safetensors", member + 1);
     else
-        snprintf(out, len, "%s/network.safetensors", dir);
+        snprintf(out, len, "network.safetensors");
+}
+
+static void member_file(char *out, size_t len, const char *dir, int member)
+{
+    char name[64];
+    member_name(name, sizeof name, member);
+    snprintf(out, len, "%s/%s", dir, name);
 }
 
 static int write_transform(const char *path, const float *scale, const float *mean,
@@ -561,25 +568,16 @@ static int compute_metrics(nn_mlp *nets, int n_nets, const param_layout *L, cons
     memset(fm, 0, sizeof *fm);
     int yc = L->n_values + L->n_selectors, out = nets[0].cfg.width[nets[0].cfg.n_linear];
     float *pred = malloc((val->n ? val->n : 1) * (size_t)yc * sizeof(float));
-    float *sum = malloc((size_t)256 * (size_t)out * sizeof(float));
-    float *one = malloc((size_t)256 * (size_t)out * sizeof(float));
-    int bad = !pred || !sum || !one;
+    float *mean = malloc((size_t)256 * (size_t)out * sizeof(float));
+    int bad = !pred || !mean;
     for (size_t i = 0; !bad && i < val->n; i += 256) {
         int B = val->n - i < 256 ? (int)(val->n - i) : 256;
-        size_t count = (size_t)B * (size_t)out;
-        for (int m = 0; !bad && m < n_nets; m++) {
-            bad = nn_mlp_forward(&nets[m], input + i * (size_t)nets[0].cfg.width[0], B,
-                                 m ? one : sum);
-            for (size_t j = 0; m && j < count; j++)
-                sum[j] += one[j];
-        }
-        for (size_t j = 0; n_nets > 1 && j < count; j++)
-            sum[j] /= (float)n_nets;
+        bad = nn_mlp_forward_mean(nets, n_nets, input + i * (size_t)nets[0].cfg.width[0], B,
+                                  mean);
         if (!bad)
-            nn_mlp_decode(&nets[0], sum, B, pred + i * (size_t)yc);
+            nn_mlp_decode(&nets[0], mean, B, pred + i * (size_t)yc);
     }
-    free(sum);
-    free(one);
+    free(mean);
     if (bad) {
         free(pred);
         return -1;
@@ -840,9 +838,9 @@ static char *model_json(const predictor_fit_options *o, const param_layout *L,
     if (st->member > 1) {
         cJSON *mem = cJSON_AddArrayToObject(net, "members");
         for (int m = 0; m < st->member; m++) {
-            char file[64];
-            member_file(file, sizeof file, ".", m);
-            cJSON_AddItemToArray(mem, cJSON_CreateString(file + 2));
+            char name[64];
+            member_name(name, sizeof name, m);
+            cJSON_AddItemToArray(mem, cJSON_CreateString(name));
         }
         cJSON_AddStringToObject(net, "ensemble", "the members' outputs (softmax probabilities, "
                                 "values) averaged; member m trained from seed + m");
