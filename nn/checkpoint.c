@@ -65,8 +65,10 @@ static void meta_add(meta_list *l, const char *key, const char *fmt, ...)
     l->n++;
 }
 
-int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char *err,
-                size_t errlen)
+/* The one writer of both entry points below: opt's state is written only in F32 (a resumed
+ * run must continue exactly), so a caller asks F16 only for weights alone. */
+static int save_checkpoint(const nn_mlp *m, const nn_optimizer *opt, nn_dtype dtype,
+                           const char *path, char *err, size_t errlen)
 {
     meta_list meta = {.n = 0};
     char arch[META_VALUE], heads[META_VALUE], losses[META_VALUE] = "";
@@ -112,7 +114,7 @@ int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char
     for (int i = 0; i < m->n_params; i++) {
         const nn_param *p = &m->params[i];
         t[n++] = (nn_tensor_out){p->name, p->ndim, {p->shape[0], p->shape[1]},
-                                 m->weights + p->offset};
+                                 m->weights + p->offset, dtype};
     }
     if (with_opt) {
         const char *first = opt->v ? "optimizer.exp_avg." : "optimizer.momentum_buffer.";
@@ -134,6 +136,34 @@ int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char
     free(t);
     free(names);
     return rc;
+}
+
+int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char *err,
+                size_t errlen)
+{
+    return save_checkpoint(m, opt, NN_F32, path, err, errlen);
+}
+
+int nn_mlp_save_weights(const nn_mlp *m, nn_dtype dtype, const char *path, char *err,
+                        size_t errlen)
+{
+    if (dtype != NN_F32 && dtype != NN_F16) {
+        set_err(err, errlen, "%s: weights are written as F32 or F16 only", path);
+        return -1;
+    }
+    // a weight past the half range would load as infinity: refuse rather than ship it
+    for (int i = 0; dtype == NN_F16 && i < m->n_params; i++) {
+        const nn_param *p = &m->params[i];
+        for (size_t k = 0; k < p->size; k++) {
+            float w = m->weights[p->offset + k];
+            if (!(fabsf(w) <= 65504.0f)) {
+                set_err(err, errlen, "%s: %s[%zu] = %g cannot be stored as F16", path, p->name,
+                        k, (double)w);
+                return -1;
+            }
+        }
+    }
+    return save_checkpoint(m, NULL, dtype, path, err, errlen);
 }
 
 /* Reads tensor prefix+name for every parameter into dst (the model's layout). */

@@ -647,6 +647,12 @@ int nn_safetensors_metadata(const nn_safetensors *st, const char *key, char *val
  * "optimizer.exp_avg_sq.<name>" (Adam) or "optimizer.momentum_buffer.<name>" (SGD). */
 int nn_mlp_save(const nn_mlp *m, const nn_optimizer *opt, const char *path, char *err,
                 size_t errlen);
+/* The same file without optimiser state, its weights as dtype: NN_F32 (nn_mlp_save's
+ * bytes with opt NULL) or NN_F16, half the bytes, each weight rounded to the nearest half
+ * (|w| < 65504 and relative error <= 2^-11 for normal halves; a model to ship, not to
+ * resume). nn_mlp_load reads either. */
+int nn_mlp_save_weights(const nn_mlp *m, nn_dtype dtype, const char *path, char *err,
+                        size_t errlen);
 /* A model from a checkpoint's metadata and weights; with opt (may be NULL) the optimiser
  * state too (opt->n == 0 when the file has none). */
 int nn_mlp_load(nn_mlp *m, nn_optimizer *opt, const char *path, char *err, size_t errlen);

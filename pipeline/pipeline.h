@@ -421,10 +421,12 @@ typedef struct predictor_fit_options {
                                     * features (a forest's: `forest importance`) */
     int texstats;                 /* the network also reads each render's texture
                                    * statistics (pipeline_texstats), after the components */
-    int half;                     /* store the PCA basis and the catalogue's reduced
-                                   * descriptors as float16 (the basis rounded before it is
-                                   * used, so training and prediction see the same values):
-                                   * half the bytes of a model to ship */
+    int half;                     /* store the PCA basis, the catalogue's reduced
+                                   * descriptors and the networks as float16 (the basis
+                                   * rounded before it is used, so training and prediction
+                                   * see the same values; the networks rounded once
+                                   * trained, and the model's figures are the rounded
+                                   * networks'): half the bytes of a model to ship */
     long long catalogue;          /* 0: every training sample in the catalogue; else the
                                    * first N (by id) */
     int conditional;              /* the value parameters given the selectors: the network

@@ -1271,7 +1271,7 @@ int predictor_fit(const predictor_fit_options *o, char *err, size_t errlen)
         // redoes only this (the same bytes)
         memcpy(net.weights, best_w, net.n_floats * sizeof(float));
         member_file(path, sizeof path, partial, m);
-        if (nn_mlp_save(&net, NULL, path, msg, sizeof msg) ||
+        if (nn_mlp_save_weights(&net, o->half ? NN_F16 : NN_F32, path, msg, sizeof msg) ||
             (m == 0 && write_losses(partial, st.train_loss, st.val_loss, st.acc, st.r2,
                                     st.epochs_done, msg, sizeof msg))) {
             pipeline_error(err, errlen, "%s", msg);

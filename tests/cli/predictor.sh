@@ -174,8 +174,8 @@ check "a failed fit leaves nothing" 0 $?
 "$imsynth" fit-predictor $fit --components 4000 -o "$tmp/x" 2> "$tmp/err"
 check "more components than rows" 1 $?
 expect_stderr "says the limit" "at most min(rows - 1, features)"
-# --half --catalogue: the basis and the catalogue in float16, the catalogue cut to its
-# first ids; the model still predicts and retrieves
+# --half --catalogue: the basis, the catalogue and the network in float16, the catalogue
+# cut to its first ids; the model still predicts and retrieves
 "$imsynth" fit-predictor $fit --epochs 6 --threads 2 --half --catalogue 5 -o "$tmp/mh"
 check "fit --half --catalogue 5" 0 $?
 py -c "
@@ -188,8 +188,13 @@ assert t16['pca.components']['shape'] == t32['pca.components']['shape']
 c = header('$tmp/mh/catalogue.safetensors')
 assert c['catalogue.z']['dtype'] == 'F16' and c['catalogue.z']['shape'][0] == 5, c['catalogue.z']
 assert c['catalogue.params']['shape'][0] == 5
+n32, n16 = header('$tmp/m1/network.safetensors'), header('$tmp/mh/network.safetensors')
+w = [k for k in n16 if k != '__metadata__']
+assert w and sorted(w) == sorted(k for k in n32 if k != '__metadata__')
+assert all(n16[k]['dtype'] == 'F16' and n32[k]['dtype'] == 'F32' for k in w), n16
+assert all(n16[k]['shape'] == n32[k]['shape'] for k in w)
 "
-check "float16 basis and catalogue, 5 catalogue rows" 0 $?
+check "float16 basis, catalogue (5 rows) and network" 0 $?
 "$imsynth" predict-params "$img" --model "$tmp/mh" --top-k 3 --nearest 5 --hypotheses "$tmp/hh.json" > /dev/null
 check "a --half model predicts and retrieves" 0 $?
 # --per-tap: each of the 5 MobileNetV2 taps gets its share of the 8 components (2,2,2,1,1),

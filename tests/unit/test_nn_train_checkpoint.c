@@ -2,7 +2,8 @@
  * Checkpoints: save and load give back the same model and optimiser bit for bit; training
  * resumed from a checkpoint equals training straight through; a torch-written file and
  * ours hold the same names, shapes and bytes; truncated, lying and mismatched files are
- * errors naming the file and the tensor or key.
+ * errors naming the file and the tensor or key; weights stored as float16 load back
+ * rounded, and a weight past the half range is refused.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -297,12 +298,90 @@ static void test_bad_checkpoints(void **state)
     nn_mlp_free(&shallow);
 }
 
+static long file_size(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fclose(f);
+    return n;
+}
+
+/* nn_mlp_save_weights: F32 is nn_mlp_save's file without optimiser state, byte for byte;
+ * F16 loads back as each weight rounded to the nearest half, in about half the bytes, and
+ * predicts within the rounding's reach; a weight past the half range is refused by name. */
+static void test_weights_as_f16(void **state)
+{
+    (void)state;
+    size_t r, c;
+    float *x = load(REF "x.npy", &r, &c), *y = load(REF "y.npy", &r, &c),
+          *mask = load(REF "mask.npy", &r, &c);
+    char err[512];
+    nn_mlp m, back;
+    nn_optimizer opt;
+    make_model(&m, "mlp:16-24-24-13,gelu,ln", "sigmoid:0-5,softmax:6/4,softmax:7/3:unit@0.5");
+    nn_optimizer_config oc = nn_optimizer_defaults(NN_OPT_ADAMW);
+    assert_int_equal(nn_optimizer_init(&opt, &oc, m.n_floats), 0);
+    train(&m, &opt, x, y, mask, 10);
+
+    assert_int_equal(nn_mlp_save(&m, NULL, OUT "w32a.safetensors", err, sizeof err), 0);
+    assert_int_equal(nn_mlp_save_weights(&m, NN_F32, OUT "w32b.safetensors", err, sizeof err),
+                     0);
+    size_t na, nb;
+    unsigned char *a = read_bytes(OUT "w32a.safetensors", &na),
+                  *b = read_bytes(OUT "w32b.safetensors", &nb);
+    assert_int_equal(na, nb);
+    assert_memory_equal(a, b, na);
+    free(a);
+    free(b);
+
+    assert_int_equal(nn_mlp_save_weights(&m, NN_F16, OUT "w16.safetensors", err, sizeof err),
+                     0);
+    long s32 = file_size(OUT "w32a.safetensors"), s16 = file_size(OUT "w16.safetensors");
+    // the data halves; the header (a few hundred bytes) stays
+    assert_true(s16 < s32 / 2 + 1024);
+    assert_int_equal(nn_mlp_load(&back, NULL, OUT "w16.safetensors", err, sizeof err), 0);
+    assert_memory_equal(&back.cfg, &m.cfg, sizeof m.cfg);
+    size_t changed = 0;
+    for (size_t k = 0; k < m.n_floats; k++) {
+        float want = nn_half_to_float(nn_float_to_half(m.weights[k]));
+        assert_memory_equal(&back.weights[k], &want, sizeof want);
+        changed += back.weights[k] != m.weights[k];
+    }
+    assert_true(changed > m.n_floats / 2); /* it did round */
+    float p32[B * YC], p16[B * YC];
+    assert_int_equal(nn_mlp_predict(&m, x, B, p32), 0);
+    assert_int_equal(nn_mlp_predict(&back, x, B, p16), 0);
+    double worst = 0;
+    for (int k = 0; k < B * YC; k++)
+        worst = fmax(worst, fabs((double)p32[k] - p16[k]));
+    assert_true(worst > 0 && worst < 1e-2);
+
+    m.weights[m.params[1].offset] = 1e5f;
+    assert_int_equal(nn_mlp_save_weights(&m, NN_F16, OUT "w16big.safetensors", err, sizeof err),
+                     -1);
+    assert_non_null(strstr(err, m.params[1].name));
+    assert_non_null(strstr(err, "F16"));
+    FILE *f = fopen(OUT "w16big.safetensors", "rb");
+    assert_null(f); /* nothing written */
+    assert_int_equal(nn_mlp_save_weights(&m, NN_BF16, OUT "wbf.safetensors", err, sizeof err),
+                     -1);
+    nn_mlp_free(&m);
+    nn_mlp_free(&back);
+    nn_optimizer_free(&opt);
+    free(x);
+    free(y);
+    free(mask);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_save_load_resume),
         cmocka_unit_test(test_torch_names_both_ways),
         cmocka_unit_test(test_bad_checkpoints),
+        cmocka_unit_test(test_weights_as_f16),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
