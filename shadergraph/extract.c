@@ -16,6 +16,9 @@
  * tests/unit/test_extract.c checks it on the super-shader anyway. Values are compared
  * with ==: the folds are Cycles' algebraic ones, which may turn -0 into +0.
  */
+#include <assert.h>
+#include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,11 +47,13 @@ static bool remove_dead(sg_flat *f)
         }
     while (sp > 0) {
         int v = stack[--sp];
-        for (int l = 0; l < f->t.n_links; l++)
-            if (f->t.links[l].to_node == v && !live[f->t.links[l].from_node]) {
+        for (int k = 0; k < f->t.nodes[v].n_in; k++) {
+            int l = sg_flat_input_link(f, v, k);
+            if (l >= 0 && !live[f->t.links[l].from_node]) {
                 live[f->t.links[l].from_node] = true;
                 stack[sp++] = f->t.links[l].from_node;
             }
+        }
     }
     bool changed = false;
     for (int i = 0; i < n; i++)
@@ -65,9 +70,8 @@ static bool remove_dead(sg_flat *f)
 }
 
 /* Two live nodes compute the same thing: same type, properties, ramp, and for each
- * input the same link source or the same constant. `first_in` holds, per node, the
- * first input's slot in `link_of` (the link into each input, or -1). */
-static bool same_node(const sg_flat *f, const int *first_in, const int *link_of, int a, int b)
+ * input the same link source or the same constant. */
+static bool same_node(const sg_flat *f, int a, int b)
 {
     const sg_node *x = &f->t.nodes[a], *y = &f->t.nodes[b];
     if (x->type != y->type || (x->type->flags & SG_NODE_SINK) ||
@@ -76,7 +80,7 @@ static bool same_node(const sg_flat *f, const int *first_in, const int *link_of,
     if ((x->ramp == NULL) != (y->ramp == NULL) || (x->ramp && memcmp(x->ramp, y->ramp, sizeof *x->ramp)))
         return false;
     for (int k = 0; k < x->n_in; k++) {
-        int la = link_of[first_in[a] + k], lb = link_of[first_in[b] + k];
+        int la = sg_flat_input_link(f, a, k), lb = sg_flat_input_link(f, b, k);
         if ((la < 0) != (lb < 0))
             return false;
         if (la >= 0) {
@@ -91,43 +95,83 @@ static bool same_node(const sg_flat *f, const int *first_in, const int *link_of,
     return true;
 }
 
+static uint64_t fnv1a(uint64_t h, const void *p, size_t n)
+{
+    const unsigned char *c = p;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ c[i]) * 1099511628211ull;
+    return h;
+}
+
+/* A hash of (part of) what same_node compares: equal nodes hash equal. */
+static uint64_t node_hash(const sg_flat *f, int a)
+{
+    const sg_node *x = &f->t.nodes[a];
+    uint64_t h = fnv1a(1469598103934665603ull, &x->type, sizeof x->type);
+    h = fnv1a(h, x->prop, sizeof x->prop);
+    if (x->ramp) /* the stops: the baked table (kilobytes) follows from them */
+        h = fnv1a(h, x->ramp, offsetof(sg_color_ramp, baked));
+    for (int k = 0; k < x->n_in; k++) {
+        int l = sg_flat_input_link(f, a, k);
+        if (l >= 0) {
+            int src[2] = {f->t.links[l].from_node, f->t.links[l].from_socket};
+            h = fnv1a(h, src, sizeof src);
+        } else {
+            h = fnv1a(h, &x->in[k].implicit, sizeof x->in[k].implicit);
+            h = fnv1a(h, x->in[k].value, sizeof x->in[k].value);
+        }
+    }
+    return h;
+}
+
+typedef struct hashed_node {
+    uint64_t hash;
+    int node;
+} hashed_node;
+
+static int by_hash_then_index(const void *pa, const void *pb)
+{
+    const hashed_node *a = pa, *b = pb;
+    if (a->hash != b->hash)
+        return a->hash < b->hash ? -1 : 1;
+    return (a->node > b->node) - (a->node < b->node);
+}
+
+/* Merges each set of equal nodes into its first (lowest index): its consumers read that
+ * one, the others die with remove_dead. Only nodes of equal hash are compared (the hashes
+ * are taken before any merge; a merge can make two consumers equal, and the next round,
+ * which a merge always causes, finds them). */
 static bool merge_duplicates(sg_flat *f)
 {
-    int n = f->t.n_nodes;
-    int *first_in = malloc(sizeof(int) * ((size_t)n + 1));
-    int total = 0;
-    for (int i = 0; first_in && i < n; i++) {
-        first_in[i] = total;
-        total += f->t.nodes[i].n_in;
-    }
-    int *link_of = malloc(sizeof(int) * ((size_t)total + 1));
-    if (!first_in || !link_of) {
-        free(first_in);
-        free(link_of);
+    int n = f->t.n_nodes, m = 0;
+    hashed_node *h = malloc(sizeof *h * ((size_t)n + 1));
+    if (!h) {
         sg_flat_oom(f);
         return false;
     }
-    for (int i = 0; i < total; i++)
-        link_of[i] = -1;
-    for (int l = 0; l < f->t.n_links; l++)
-        link_of[first_in[f->t.links[l].to_node] + f->t.links[l].to_socket] = l;
+    for (int i = 0; i < n; i++)
+        if (!f->dead[i] && !(f->t.nodes[i].type->flags & SG_NODE_SINK))
+            h[m++] = (hashed_node){node_hash(f, i), i};
+    qsort(h, (size_t)m, sizeof *h, by_hash_then_index);
     bool changed = false;
-    for (int a = 0; a < n; a++) {
-        if (f->dead[a])
-            continue;
-        for (int b = a + 1; b < n; b++) {
-            if (f->dead[b] || !same_node(f, first_in, link_of, a, b))
-                continue;
-            /* b's consumers now read a; b dies with remove_dead. Links only change
-             * their sources, so link_of stays valid. */
-            for (int k = 0; k < f->t.nodes[b].n_out; k++)
-                sg_flat_redirect_output(f, b, k, a, k);
-            f->dead[b] = true;
-            changed = true;
+    for (int lo = 0, hi; lo < m; lo = hi) {
+        for (hi = lo + 1; hi < m && h[hi].hash == h[lo].hash; hi++)
+            ;
+        for (int i = lo; i < hi; i++) {
+            int a = h[i].node;
+            for (int j = i + 1; j < hi && !f->dead[a]; j++) {
+                int b = h[j].node;
+                if (f->dead[b] || !same_node(f, a, b))
+                    continue;
+                /* Links only change their sources: the index stays valid. */
+                for (int k = 0; k < f->t.nodes[b].n_out; k++)
+                    sg_flat_redirect_output(f, b, k, a, k);
+                f->dead[b] = true;
+                changed = true;
+            }
         }
     }
-    free(first_in);
-    free(link_of);
+    free(h);
     return changed;
 }
 
@@ -224,15 +268,18 @@ static sg_graph *flatten_and_fold(const sg_graph *g, sg_blender_mode mode, bool 
                                   sg_socket_ref *resolved, sg_socket_type *types, char *err, size_t errlen)
 {
     sg_flat f = {.err = err, .errlen = errlen};
-    sg_flatten(&f, g, refs, n_refs, resolved, types);
+    if (sg_flatten(&f, g, refs, n_refs, resolved, types) && fold_constants)
+        sg_flat_index_links(&f);
     for (int round = 0; fold_constants && !f.failed && round < 10000; round++) {
         bool changed = sg_fold_pass(&f, mode);
         changed |= merge_duplicates(&f);
         if (extract)
             changed |= remove_dead(&f);
+        assert(f.failed || sg_flat_index_is_true(&f));
         if (!changed)
             break;
     }
+    sg_flat_free_index(&f); /* compaction renumbers the nodes */
     if (!f.failed)
         compact(&f);
     if (!f.failed && extract)

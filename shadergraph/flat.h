@@ -26,6 +26,12 @@ typedef struct sg_flat {
     const sg_graph *src;
     int n_contexts; /* group instances made so far: bounded like nodes */
     int depth;      /* resolve_out calls on the stack: at most SG_MAX_RESOLVE_DEPTH */
+    /* The link index, so that folding and extraction never scan every link to answer
+     * "what feeds this input" or "does anything read this node": built once the tree is
+     * flat (sg_flat_index_links; no node is added after), then kept true by the edits
+     * below. in_link[slot0[i] + k] is the link into input k of node i, or -1; n_from[i]
+     * and n_into[i] count the links leaving and entering node i. NULL before it is built. */
+    int *slot0, *in_link, *n_from, *n_into;
 } sg_flat;
 
 /* Inlines g's groups into f (zero-initialised but for err): see flatten.c. With refs,
@@ -52,9 +58,32 @@ static inline bool sg_is_vec_type(sg_socket_type t)
     return t == SG_SOCKET_VECTOR || t == SG_SOCKET_COLOR;
 }
 
-/* Link edits. Removing a link moves the last one into its slot: loops that remove
- * while scanning walk the links backwards. */
-static inline void sg_flat_remove_link(sg_flat *f, int l) { f->t.links[l] = f->t.links[--f->t.n_links]; }
+/* Builds the link index (flatten.c). Returns false on failure (out of memory: f fails). */
+bool sg_flat_index_links(sg_flat *f);
+/* Whether the index describes the links exactly (debug builds assert it after each
+ * simplification round). */
+bool sg_flat_index_is_true(const sg_flat *f);
+void sg_flat_free_index(sg_flat *f);
+
+static inline int sg_flat_input_link(const sg_flat *f, int node, int k)
+{
+    return f->in_link[f->slot0[node] + k];
+}
+
+/* Link edits, the only ones once the index is built. Removing a link moves the last one
+ * into its slot: loops that remove while scanning walk the links backwards. */
+static inline void sg_flat_remove_link(sg_flat *f, int l)
+{
+    sg_link *k = &f->t.links[l];
+    if (f->in_link) {
+        f->in_link[f->slot0[k->to_node] + k->to_socket] = -1;
+        f->n_from[k->from_node]--;
+        f->n_into[k->to_node]--;
+    }
+    *k = f->t.links[--f->t.n_links];
+    if (f->in_link && l < f->t.n_links)
+        f->in_link[f->slot0[k->to_node] + k->to_socket] = l;
+}
 
 /* Relinks every consumer of (node, socket) to (src, src_socket). */
 static inline void sg_flat_redirect_output(sg_flat *f, int node, int socket, int src, int src_socket)
@@ -64,6 +93,10 @@ static inline void sg_flat_redirect_output(sg_flat *f, int node, int socket, int
         if (k->from_node == node && k->from_socket == socket) {
             k->from_node = src;
             k->from_socket = src_socket;
+            if (f->in_link) {
+                f->n_from[node]--;
+                f->n_from[src]++;
+            }
         }
     }
 }

@@ -140,6 +140,8 @@ typedef struct context {
     char *prefix;          /* "Group/" path of names */
     int *map;              /* per node of tree: flat index (typed nodes), -1 otherwise */
     struct context **child; /* per group node, lazily */
+    int *slot0, *in_link;  /* tree's link into input k of node i: in_link[slot0[i] + k],
+                            * or -1 (sg_tree_input_link without a scan of the links) */
 } context;
 
 static source resolve_out(sg_flat *f, context *c, int node, int socket);
@@ -150,7 +152,7 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
 static source resolve_in(sg_flat *f, context *c, int node, int k)
 {
     const sg_tree *t = c->tree;
-    int l = sg_tree_input_link(t, node, k);
+    int l = c->in_link[c->slot0[node] + k];
     if (l >= 0)
         return resolve_out(f, c, t->links[l].from_node, t->links[l].from_socket);
     source s = {.is_const = true, .type = t->nodes[node].in[k].type, .node = -1};
@@ -303,17 +305,32 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
         return NULL;
     }
     context *c = calloc(1, sizeof *c);
+    int n_in = 0;
+    for (int i = 0; i < t->n_nodes; i++)
+        n_in += t->nodes[i].n_in;
     if (!c || !(c->map = malloc(sizeof(int) * (size_t)(t->n_nodes + 1))) ||
         !(c->child = calloc((size_t)t->n_nodes + 1, sizeof *c->child)) ||
+        !(c->slot0 = malloc(sizeof(int) * (size_t)(t->n_nodes + 1))) ||
+        !(c->in_link = malloc(sizeof(int) * (size_t)(n_in + 1))) ||
         !(c->prefix = strdup(prefix))) {
         if (c) {
             free(c->map);
             free(c->child);
+            free(c->slot0);
+            free(c->in_link);
             free(c);
         }
         sg_flat_oom(f);
         return NULL;
     }
+    for (int i = 0, slot = 0; i < t->n_nodes; slot += t->nodes[i++].n_in)
+        c->slot0[i] = slot;
+    for (int k = 0; k < n_in; k++)
+        c->in_link[k] = -1;
+    /* the first link into an input, as sg_tree_input_link finds it (a loaded tree has
+     * at most one) */
+    for (int l = t->n_links - 1; l >= 0; l--)
+        c->in_link[c->slot0[t->links[l].to_node] + t->links[l].to_socket] = l;
     c->tree = t;
     c->parent = parent;
     c->parent_node = parent_node;
@@ -334,7 +351,7 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
         if (c->map[i] < 0)
             continue;
         for (int k = 0; k < t->nodes[i].n_in; k++) {
-            if (sg_tree_input_link(t, i, k) < 0)
+            if (c->in_link[c->slot0[i] + k] < 0)
                 continue;
             source s = resolve_in(f, c, i, k);
             if (f->failed)
@@ -376,6 +393,8 @@ static void free_context(context *c)
         free_context(c->child[i]);
     free(c->child);
     free(c->map);
+    free(c->slot0);
+    free(c->in_link);
     free(c->prefix);
     free(c);
 }
@@ -473,6 +492,56 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
     return !f->failed;
 }
 
+bool sg_flat_index_links(sg_flat *f)
+{
+    int n = f->t.n_nodes, n_in = 0;
+    for (int i = 0; i < n; i++)
+        n_in += f->t.nodes[i].n_in;
+    f->slot0 = malloc(sizeof(int) * ((size_t)n + 1));
+    f->in_link = malloc(sizeof(int) * ((size_t)n_in + 1));
+    f->n_from = calloc((size_t)n + 1, sizeof(int));
+    f->n_into = calloc((size_t)n + 1, sizeof(int));
+    if (!f->slot0 || !f->in_link || !f->n_from || !f->n_into) {
+        sg_flat_free_index(f);
+        sg_flat_oom(f);
+        return false;
+    }
+    for (int i = 0, slot = 0; i < n; slot += f->t.nodes[i++].n_in)
+        f->slot0[i] = slot;
+    for (int k = 0; k < n_in; k++)
+        f->in_link[k] = -1;
+    for (int l = 0; l < f->t.n_links; l++) {
+        const sg_link *k = &f->t.links[l];
+        f->in_link[f->slot0[k->to_node] + k->to_socket] = l;
+        f->n_from[k->from_node]++;
+        f->n_into[k->to_node]++;
+    }
+    return true;
+}
+
+bool sg_flat_index_is_true(const sg_flat *f)
+{
+    sg_flat fresh = {.t = f->t};
+    if (!sg_flat_index_links(&fresh))
+        return true; /* out of memory: nothing to say */
+    int n = f->t.n_nodes;
+    int n_in = n ? f->slot0[n - 1] + f->t.nodes[n - 1].n_in : 0;
+    bool same = !memcmp(fresh.in_link, f->in_link, sizeof(int) * (size_t)n_in) &&
+                !memcmp(fresh.n_from, f->n_from, sizeof(int) * (size_t)n) &&
+                !memcmp(fresh.n_into, f->n_into, sizeof(int) * (size_t)n);
+    sg_flat_free_index(&fresh);
+    return same;
+}
+
+void sg_flat_free_index(sg_flat *f)
+{
+    free(f->slot0);
+    free(f->in_link);
+    free(f->n_from);
+    free(f->n_into);
+    f->slot0 = f->in_link = f->n_from = f->n_into = NULL;
+}
+
 void sg_flat_free(sg_flat *f)
 {
     for (int i = 0; i < f->t.n_nodes; i++)
@@ -486,6 +555,7 @@ void sg_flat_free(sg_flat *f)
     free(f->t.nodes);
     free(f->t.links);
     free(f->dead);
+    sg_flat_free_index(f);
     f->t.nodes = NULL;
     f->t.links = NULL;
     f->dead = NULL;

@@ -32,7 +32,7 @@ struct sg_fold {
     sg_blender_mode mode;
 };
 
-static int input_link(const sg_flat *f, int node, int k) { return sg_tree_input_link(&f->t, node, k); }
+static int input_link(const sg_flat *f, int node, int k) { return sg_flat_input_link(f, node, k); }
 
 static bool is_const_input(const sg_flat *f, int node, int k)
 {
@@ -46,6 +46,8 @@ static bool is_const_input(const sg_flat *f, int node, int k)
 static int replace_output_by_constant(sg_flat *f, int node, int socket, sg_socket_type t, const float *v)
 {
     int replaced = 0;
+    if (f->n_from[node] == 0)
+        return 0;
     for (int l = f->t.n_links - 1; l >= 0; l--) {
         sg_link k = f->t.links[l];
         if (k.from_node != node || k.from_socket != socket)
@@ -63,35 +65,27 @@ static int replace_output_by_constant(sg_flat *f, int node, int socket, sg_socke
     return replaced;
 }
 
-/* Every input constant: no implicit input, and no link into the node (one scan of the
- * links rather than one per input). */
+/* Every input constant: no implicit input, and no link into the node. */
 static bool all_inputs_constant(const sg_flat *f, int node)
 {
     const sg_node *n = &f->t.nodes[node];
     for (int k = 0; k < n->n_in; k++)
         if (n->in[k].implicit != SG_IMPLICIT_NONE)
             return false;
-    for (int l = 0; l < f->t.n_links; l++)
-        if (f->t.links[l].to_node == node)
-            return false;
-    return true;
+    return f->n_into[node] == 0;
 }
 
 static bool has_output_consumers(const sg_flat *f, int node, int socket)
 {
+    if (f->n_from[node] == 0)
+        return false;
     for (int l = 0; l < f->t.n_links; l++)
         if (f->t.links[l].from_node == node && f->t.links[l].from_socket == socket)
             return true;
     return false;
 }
 
-static bool has_consumers(const sg_flat *f, int node)
-{
-    for (int l = 0; l < f->t.n_links; l++)
-        if (f->t.links[l].from_node == node)
-            return true;
-    return false;
-}
+static bool has_consumers(const sg_flat *f, int node) { return f->n_from[node] > 0; }
 
 /* ---- the API of fold.h ------------------------------------------------------------ */
 
