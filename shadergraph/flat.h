@@ -43,8 +43,8 @@ typedef struct sg_flat {
 bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_refs,
                 sg_socket_ref *resolved, sg_socket_type *types);
 
-/* One pass of Cycles' constant folding over every live node with consumers (fold.c).
- * Returns whether anything changed. */
+/* One pass of Cycles' constant folding over every live node with consumers (fold.c), on
+ * an indexed graph (sg_flat_index_links). Returns whether anything changed. */
 bool sg_fold_pass(sg_flat *f, sg_blender_mode mode);
 
 /* Frees every live node's allocations and the arrays (on failure). */
