@@ -124,6 +124,28 @@ static void add_link(sg_flat *f, int from, int from_socket, int to, int to_socke
     f->t.links[f->t.n_links++] = (sg_link){from, from_socket, to, to_socket};
 }
 
+/* The link into each input of t's nodes without a scan of the links: in_link[slot0[i] +
+ * k] is sg_tree_input_link(t, i, k) (the first such link; a loaded or flat tree has at
+ * most one), or -1. Returns false when out of memory (whatever was allocated is in the
+ * outputs, for the caller to free). */
+static bool index_tree_inputs(const sg_tree *t, int **slot0, int **in_link)
+{
+    int n_in = 0;
+    for (int i = 0; i < t->n_nodes; i++)
+        n_in += t->nodes[i].n_in;
+    *slot0 = malloc(sizeof(int) * ((size_t)t->n_nodes + 1));
+    *in_link = malloc(sizeof(int) * ((size_t)n_in + 1));
+    if (!*slot0 || !*in_link)
+        return false;
+    for (int i = 0, slot = 0; i < t->n_nodes; slot += t->nodes[i++].n_in)
+        (*slot0)[i] = slot;
+    for (int k = 0; k < n_in; k++)
+        (*in_link)[k] = -1;
+    for (int l = t->n_links - 1; l >= 0; l--)
+        (*in_link)[(*slot0)[t->links[l].to_node] + t->links[l].to_socket] = l;
+    return true;
+}
+
 /* ---- 1. inlining ------------------------------------------------------------------ */
 
 typedef struct source {
@@ -305,14 +327,9 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
         return NULL;
     }
     context *c = calloc(1, sizeof *c);
-    int n_in = 0;
-    for (int i = 0; i < t->n_nodes; i++)
-        n_in += t->nodes[i].n_in;
     if (!c || !(c->map = malloc(sizeof(int) * (size_t)(t->n_nodes + 1))) ||
         !(c->child = calloc((size_t)t->n_nodes + 1, sizeof *c->child)) ||
-        !(c->slot0 = malloc(sizeof(int) * (size_t)(t->n_nodes + 1))) ||
-        !(c->in_link = malloc(sizeof(int) * (size_t)(n_in + 1))) ||
-        !(c->prefix = strdup(prefix))) {
+        !index_tree_inputs(t, &c->slot0, &c->in_link) || !(c->prefix = strdup(prefix))) {
         if (c) {
             free(c->map);
             free(c->child);
@@ -323,14 +340,6 @@ static context *new_context(sg_flat *f, const sg_tree *t, context *parent, int p
         sg_flat_oom(f);
         return NULL;
     }
-    for (int i = 0, slot = 0; i < t->n_nodes; slot += t->nodes[i++].n_in)
-        c->slot0[i] = slot;
-    for (int k = 0; k < n_in; k++)
-        c->in_link[k] = -1;
-    /* the first link into an input, as sg_tree_input_link finds it (a loaded tree has
-     * at most one) */
-    for (int l = t->n_links - 1; l >= 0; l--)
-        c->in_link[c->slot0[t->links[l].to_node] + t->links[l].to_socket] = l;
     c->tree = t;
     c->parent = parent;
     c->parent_node = parent_node;
@@ -494,27 +503,17 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
 
 bool sg_flat_index_links(sg_flat *f)
 {
-    int n = f->t.n_nodes, n_in = 0;
-    for (int i = 0; i < n; i++)
-        n_in += f->t.nodes[i].n_in;
-    f->slot0 = malloc(sizeof(int) * ((size_t)n + 1));
-    f->in_link = malloc(sizeof(int) * ((size_t)n_in + 1));
+    int n = f->t.n_nodes;
     f->n_from = calloc((size_t)n + 1, sizeof(int));
     f->n_into = calloc((size_t)n + 1, sizeof(int));
-    if (!f->slot0 || !f->in_link || !f->n_from || !f->n_into) {
+    if (!index_tree_inputs(&f->t, &f->slot0, &f->in_link) || !f->n_from || !f->n_into) {
         sg_flat_free_index(f);
         sg_flat_oom(f);
         return false;
     }
-    for (int i = 0, slot = 0; i < n; slot += f->t.nodes[i++].n_in)
-        f->slot0[i] = slot;
-    for (int k = 0; k < n_in; k++)
-        f->in_link[k] = -1;
     for (int l = 0; l < f->t.n_links; l++) {
-        const sg_link *k = &f->t.links[l];
-        f->in_link[f->slot0[k->to_node] + k->to_socket] = l;
-        f->n_from[k->from_node]++;
-        f->n_into[k->to_node]++;
+        f->n_from[f->t.links[l].from_node]++;
+        f->n_into[f->t.links[l].to_node]++;
     }
     return true;
 }
