@@ -27,11 +27,15 @@ typedef struct sg_flat {
     int n_contexts; /* group instances made so far: bounded like nodes */
     int depth;      /* resolve_out calls on the stack: at most SG_MAX_RESOLVE_DEPTH */
     /* The link index, so that folding and extraction never scan every link to answer
-     * "what feeds this input" or "does anything read this node": built once the tree is
-     * flat (sg_flat_index_links; no node is added after), then kept true by the edits
-     * below. in_link[slot0[i] + k] is the link into input k of node i, or -1; n_from[i]
-     * and n_into[i] count the links leaving and entering node i. NULL before it is built. */
+     * "what feeds this input", "does anything read this node" or "which links read this
+     * output": built once the tree is flat (sg_flat_index_links; no node or link is added
+     * after), then kept true by the two edits below. in_link[slot0[i] + k] is the link
+     * into input k of node i, or -1; n_from[i] and n_into[i] count the links leaving and
+     * entering node i. The links leaving node i form a doubly linked list through link
+     * indices: first_from[i], then next_from[l] (prev_from[l] back), -1 at either end, in
+     * no particular order. NULL before it is built. */
     int *slot0, *in_link, *n_from, *n_into;
+    int *first_from, *next_from, *prev_from;
 } sg_flat;
 
 /* Inlines g's groups into f (zero-initialised but for err): see flatten.c. With refs,
@@ -70,35 +74,12 @@ static inline int sg_flat_input_link(const sg_flat *f, int node, int k)
     return f->in_link[f->slot0[node] + k];
 }
 
-/* Link edits, the only ones once the index is built. Removing a link moves the last one
- * into its slot: loops that remove while scanning walk the links backwards. */
-static inline void sg_flat_remove_link(sg_flat *f, int l)
-{
-    sg_link *k = &f->t.links[l];
-    if (f->in_link) {
-        f->in_link[f->slot0[k->to_node] + k->to_socket] = -1;
-        f->n_from[k->from_node]--;
-        f->n_into[k->to_node]--;
-    }
-    *k = f->t.links[--f->t.n_links];
-    if (f->in_link && l < f->t.n_links)
-        f->in_link[f->slot0[k->to_node] + k->to_socket] = l;
-}
-
+/* Link edits, the only ones once the index is built (flatten.c).
+ * Removing link l moves the last link into slot l, keeping its place in its source's
+ * list: a walk of one list that removes the link it stands on continues from the
+ * removed link's successor, or from l if that successor was the moved link. */
+void sg_flat_remove_link(sg_flat *f, int l);
 /* Relinks every consumer of (node, socket) to (src, src_socket). */
-static inline void sg_flat_redirect_output(sg_flat *f, int node, int socket, int src, int src_socket)
-{
-    for (int l = 0; l < f->t.n_links; l++) {
-        sg_link *k = &f->t.links[l];
-        if (k->from_node == node && k->from_socket == socket) {
-            k->from_node = src;
-            k->from_socket = src_socket;
-            if (f->in_link) {
-                f->n_from[node]--;
-                f->n_from[src]++;
-            }
-        }
-    }
-}
+void sg_flat_redirect_output(sg_flat *f, int node, int socket, int src, int src_socket);
 
 #endif

@@ -13,6 +13,7 @@
  * through reroutes and interfaces (SG_MAX_RESOLVE_DEPTH): a few kilobytes of JSON must
  * not exhaust memory or the stack.
  */
+#include <assert.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -501,21 +502,70 @@ bool sg_flatten(sg_flat *f, const sg_graph *g, const sg_socket_ref *refs, int n_
     return !f->failed;
 }
 
+/* Puts link l at the head of its source's list. */
+static void push_from(sg_flat *f, int l)
+{
+    int node = f->t.links[l].from_node, head = f->first_from[node];
+    f->prev_from[l] = -1;
+    f->next_from[l] = head;
+    if (head >= 0)
+        f->prev_from[head] = l;
+    f->first_from[node] = l;
+}
+
+/* Takes link l out of its source's list. */
+static void unlink_from(sg_flat *f, int l)
+{
+    int prev = f->prev_from[l], next = f->next_from[l];
+    if (prev >= 0)
+        f->next_from[prev] = next;
+    else
+        f->first_from[f->t.links[l].from_node] = next;
+    if (next >= 0)
+        f->prev_from[next] = prev;
+}
+
 bool sg_flat_index_links(sg_flat *f)
 {
-    int n = f->t.n_nodes;
+    int n = f->t.n_nodes, n_links = f->t.n_links;
     f->n_from = calloc((size_t)n + 1, sizeof(int));
     f->n_into = calloc((size_t)n + 1, sizeof(int));
-    if (!index_tree_inputs(&f->t, &f->slot0, &f->in_link) || !f->n_from || !f->n_into) {
+    f->first_from = malloc(sizeof(int) * ((size_t)n + 1));
+    f->next_from = malloc(sizeof(int) * ((size_t)n_links + 1));
+    f->prev_from = malloc(sizeof(int) * ((size_t)n_links + 1));
+    if (!index_tree_inputs(&f->t, &f->slot0, &f->in_link) || !f->n_from || !f->n_into ||
+        !f->first_from || !f->next_from || !f->prev_from) {
         sg_flat_free_index(f);
         sg_flat_oom(f);
         return false;
     }
-    for (int l = 0; l < f->t.n_links; l++) {
+    for (int i = 0; i < n; i++)
+        f->first_from[i] = -1;
+    for (int l = n_links - 1; l >= 0; l--) { /* so that each list runs in link order */
         f->n_from[f->t.links[l].from_node]++;
         f->n_into[f->t.links[l].to_node]++;
+        push_from(f, l);
     }
     return true;
+}
+
+/* Each node's list holds exactly the links from it, n_from of them, with its back
+ * pointers true; together the lists hold every link once. */
+static bool from_lists_are_true(const sg_flat *f)
+{
+    int listed = 0;
+    for (int i = 0; i < f->t.n_nodes; i++) {
+        int count = 0;
+        for (int l = f->first_from[i], prev = -1; l >= 0; prev = l, l = f->next_from[l]) {
+            if (l >= f->t.n_links || f->t.links[l].from_node != i || f->prev_from[l] != prev ||
+                ++count > f->n_from[i])
+                return false;
+        }
+        if (count != f->n_from[i])
+            return false;
+        listed += count;
+    }
+    return listed == f->t.n_links;
 }
 
 bool sg_flat_index_is_true(const sg_flat *f)
@@ -527,7 +577,7 @@ bool sg_flat_index_is_true(const sg_flat *f)
     int n_in = n ? f->slot0[n - 1] + f->t.nodes[n - 1].n_in : 0;
     bool same = !memcmp(fresh.in_link, f->in_link, sizeof(int) * (size_t)n_in) &&
                 !memcmp(fresh.n_from, f->n_from, sizeof(int) * (size_t)n) &&
-                !memcmp(fresh.n_into, f->n_into, sizeof(int) * (size_t)n);
+                !memcmp(fresh.n_into, f->n_into, sizeof(int) * (size_t)n) && from_lists_are_true(f);
     sg_flat_free_index(&fresh);
     return same;
 }
@@ -538,7 +588,54 @@ void sg_flat_free_index(sg_flat *f)
     free(f->in_link);
     free(f->n_from);
     free(f->n_into);
+    free(f->first_from);
+    free(f->next_from);
+    free(f->prev_from);
     f->slot0 = f->in_link = f->n_from = f->n_into = NULL;
+    f->first_from = f->next_from = f->prev_from = NULL;
+}
+
+void sg_flat_remove_link(sg_flat *f, int l)
+{
+    assert(f->in_link && l >= 0 && l < f->t.n_links);
+    int last = f->t.n_links - 1;
+    sg_link *k = &f->t.links[l];
+    f->in_link[f->slot0[k->to_node] + k->to_socket] = -1;
+    f->n_from[k->from_node]--;
+    f->n_into[k->to_node]--;
+    unlink_from(f, l);
+    if (l < last) {
+        /* The last link moves into slot l: its input and its neighbours follow it. */
+        int prev = f->prev_from[last], next = f->next_from[last];
+        *k = f->t.links[last];
+        f->prev_from[l] = prev;
+        f->next_from[l] = next;
+        if (prev >= 0)
+            f->next_from[prev] = l;
+        else
+            f->first_from[k->from_node] = l;
+        if (next >= 0)
+            f->prev_from[next] = l;
+        f->in_link[f->slot0[k->to_node] + k->to_socket] = l;
+    }
+    f->t.n_links = last;
+}
+
+void sg_flat_redirect_output(sg_flat *f, int node, int socket, int src, int src_socket)
+{
+    assert(f->in_link);
+    for (int l = f->first_from[node], next; l >= 0; l = next) {
+        next = f->next_from[l];
+        sg_link *k = &f->t.links[l];
+        if (k->from_socket != socket)
+            continue;
+        unlink_from(f, l);
+        k->from_node = src;
+        k->from_socket = src_socket;
+        push_from(f, l);
+        f->n_from[node]--;
+        f->n_from[src]++;
+    }
 }
 
 void sg_flat_free(sg_flat *f)

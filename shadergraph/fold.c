@@ -46,11 +46,10 @@ static bool is_const_input(const sg_flat *f, int node, int k)
 static int replace_output_by_constant(sg_flat *f, int node, int socket, sg_socket_type t, const float *v)
 {
     int replaced = 0;
-    if (f->n_from[node] == 0)
-        return 0;
-    for (int l = f->t.n_links - 1; l >= 0; l--) {
+    for (int l = f->first_from[node], next; l >= 0; l = next) {
+        next = f->next_from[l];
         sg_link k = f->t.links[l];
-        if (k.from_node != node || k.from_socket != socket)
+        if (k.from_socket != socket)
             continue;
         sg_socket *in = &f->t.nodes[k.to_node].in[k.to_socket];
         float conv[4];
@@ -59,7 +58,10 @@ static int replace_output_by_constant(sg_flat *f, int node, int socket, sg_socke
             continue;
         memcpy(in->value, conv, sizeof conv);
         in->implicit = SG_IMPLICIT_NONE;
+        int last = f->t.n_links - 1;
         sg_flat_remove_link(f, l);
+        if (next == last)
+            next = l; /* the successor moved into the removed link's slot */
         replaced++;
     }
     return replaced;
@@ -77,10 +79,8 @@ static bool all_inputs_constant(const sg_flat *f, int node)
 
 static bool has_output_consumers(const sg_flat *f, int node, int socket)
 {
-    if (f->n_from[node] == 0)
-        return false;
-    for (int l = 0; l < f->t.n_links; l++)
-        if (f->t.links[l].from_node == node && f->t.links[l].from_socket == socket)
+    for (int l = f->first_from[node]; l >= 0; l = f->next_from[l])
+        if (f->t.links[l].from_socket == socket)
             return true;
     return false;
 }
